@@ -1,0 +1,72 @@
+//! Errors of the model layer.
+
+use thiserror::Error;
+
+/// A parameter set that cannot be used.
+#[derive(Debug, Error, Clone, PartialEq)]
+pub enum ParamError {
+    /// Unparseable JSON or not an object of numbers.
+    #[error("parameters: {0}")]
+    Json(String),
+    /// A name outside the paper's set.
+    #[error("unknown parameter `{0}` (expected one of u0, uy, uF0, rF0, zeta0, f0, f1, f2, u3)")]
+    Unknown(String),
+    /// A value that is not a number.
+    #[error("parameter `{name}`: expected a number, found {found}")]
+    NotANumber { name: String, found: String },
+    /// A name the model needs but was not given.
+    #[error("missing parameter `{name}` required by model `{model}`")]
+    Missing { name: &'static str, model: String },
+    /// A name the model does not use.
+    #[error("parameter `{name}` is not used by model `{model}` (its parameters: {expected})")]
+    Unused {
+        name: &'static str,
+        model: String,
+        expected: String,
+    },
+    /// A value outside its valid range.
+    #[error("parameter `{name}` = {value}: {requirement}")]
+    Invalid {
+        name: &'static str,
+        value: f64,
+        requirement: &'static str,
+    },
+    /// A parameter vector of the wrong length.
+    #[error("model `{model}` takes {expected} parameters, got {found}")]
+    Length {
+        model: String,
+        expected: usize,
+        found: usize,
+    },
+}
+
+/// A model spec string that cannot be parsed.
+#[derive(Debug, Error, Clone, PartialEq)]
+pub enum SpecError {
+    #[error("unknown model component `{0}` (spring: linear|bilinear|trilinear; friction: none|coulomb|lcfm; damper: none|viscous)")]
+    Unknown(String),
+    #[error("model spec `{spec}` names a {kind} twice")]
+    Duplicate { spec: String, kind: &'static str },
+    #[error("model spec `{0}` names no spring (linear, bilinear or trilinear)")]
+    NoSpring(String),
+}
+
+/// A simulation that cannot be completed.
+#[derive(Debug, Error, Clone, PartialEq)]
+pub enum SimError {
+    #[error(transparent)]
+    Param(#[from] ParamError),
+    /// The time step or duration is not usable.
+    #[error("`{name}` = {value}: {requirement}")]
+    Grid {
+        name: &'static str,
+        value: f64,
+        requirement: &'static str,
+    },
+    /// More phases than the cap allows (a runaway or Zeno-like response).
+    #[error("more than {cap} phases of motion before t = {t:.6} s (raise the phase cap if this is expected)")]
+    PhaseCap { cap: usize, t: f64 },
+    /// The response grows without bound (negative net stiffness).
+    #[error("the response diverges (|u| = {u:e} m at t = {t:.6} s): the net restoring force becomes negative")]
+    Diverged { t: f64, u: f64 },
+}

@@ -1,0 +1,54 @@
+//! The forward model: a rigid mass on a hysteretic spring, a friction slider
+//! and a viscous damper, released from an imposed displacement and solved in
+//! closed form phase by phase.
+//!
+//! - [`spring`]: the tri-linear / bi-linear / linear rubber-bearing spring;
+//! - [`friction`]: the linear Coulomb slider;
+//! - [`phase`]: one linear phase, solved exactly in every regime;
+//! - [`simulate`]: the event-driven walk from phase to phase;
+//! - [`response`]: samples, forces, residual displacement, work;
+//! - [`physical`]: Table 8.2 quantities from the parameters.
+
+pub mod error;
+pub mod friction;
+pub mod params;
+pub mod phase;
+pub mod physical;
+pub mod response;
+pub mod simulate;
+pub mod spec;
+pub mod spring;
+
+pub use error::{ParamError, SimError, SpecError};
+pub use params::{ParamName, Params};
+pub use response::{Response, Sample, Work};
+pub use simulate::{Phase, PhaseKind, SimOptions, System};
+pub use spec::{DamperKind, FrictionKind, ModelSpec, SpringKind};
+
+/// What the inference layer sees of a model: named parameters in, sampled
+/// acceleration out. It knows nothing else about the physics.
+pub trait ForwardModel: Send + Sync {
+    /// The model's name (its spec string).
+    fn name(&self) -> String;
+
+    /// Parameter names, in the order of `theta`.
+    fn param_names(&self) -> Vec<String>;
+
+    /// Acceleration at `t_i = i dt` for `i < out.len()`, written into `out`.
+    fn accel_into(&self, theta: &[f64], dt: f64, out: &mut [f64]) -> Result<(), SimError>;
+}
+
+impl ForwardModel for ModelSpec {
+    fn name(&self) -> String {
+        self.to_string()
+    }
+
+    fn param_names(&self) -> Vec<String> {
+        ModelSpec::param_names(self).iter().map(|p| p.as_str().to_string()).collect()
+    }
+
+    fn accel_into(&self, theta: &[f64], dt: f64, out: &mut [f64]) -> Result<(), SimError> {
+        let p = self.params_from_slice(theta)?;
+        System::new(self, &p).accel_into(dt, out, &SimOptions::default())
+    }
+}

@@ -1,0 +1,376 @@
+//! Phase-by-phase closed-form simulation of the release test.
+//!
+//! The engine walks from one event to the next: reversal (`u' = 0`, where
+//! the stop rule of eq. 5.6 is applied), `u = 0` (the friction stiffness
+//! changes sign), an envelope breakpoint, or the end of an elastic stretch.
+//! Each stretch in between is a [`LinearPhase`] solved exactly; the phases
+//! are handed to a sink, so sampling the acceleration allocates nothing.
+
+use std::fmt;
+
+use serde::Serialize;
+
+use super::error::SimError;
+use super::friction::Friction;
+use super::params::Params;
+use super::phase::LinearPhase;
+use super::spec::{DamperKind, FrictionKind, ModelSpec, SpringKind};
+use super::spring::{Spring, SpringBranch};
+
+/// What the spring does during a phase.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum PhaseKind {
+    /// Elastic unloading or reloading with slope `k0`.
+    Elastic,
+    /// On the envelope, branch 1 (slope `k2`, before the first breakpoint).
+    Plastic1,
+    /// On the envelope, branch 2 (slope `k1`).
+    Plastic2,
+    /// On the envelope, branch 3 (slope `k2`, beyond `u3`).
+    Plastic3,
+    /// At rest for good: the slider holds the spring force (eq. 5.6).
+    Rest,
+}
+
+impl PhaseKind {
+    /// Lower-case name as written in CSV and JSON (`elastic`, `plastic1`, ...).
+    pub fn as_str(self) -> &'static str {
+        match self {
+            PhaseKind::Elastic => "elastic",
+            PhaseKind::Plastic1 => "plastic1",
+            PhaseKind::Plastic2 => "plastic2",
+            PhaseKind::Plastic3 => "plastic3",
+            PhaseKind::Rest => "rest",
+        }
+    }
+}
+
+impl fmt::Display for PhaseKind {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.as_str())
+    }
+}
+
+/// One phase of motion: a stretch with constant coefficients.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Phase {
+    pub kind: PhaseKind,
+    pub t_start: f64,
+    pub t_end: f64,
+    pub u_start: f64,
+    pub v_start: f64,
+    pub u_end: f64,
+    pub v_end: f64,
+    /// Direction of motion, `+1` or `-1` (`0` at rest).
+    pub dir: f64,
+    /// Sign of `u` during the phase.
+    pub sign_u: f64,
+    /// The phase's equation of motion.
+    pub lin: LinearPhase,
+    /// Spring line `F_S = spring_c + spring_k u` during the phase.
+    pub spring_k: f64,
+    pub spring_c: f64,
+}
+
+impl Phase {
+    /// Displacement and velocity at absolute time `t` within the phase.
+    pub fn state_at(&self, t: f64) -> (f64, f64) {
+        self.lin.state_at(self.u_start, self.v_start, t - self.t_start)
+    }
+
+    /// Spring force per unit mass at `u`.
+    pub fn spring_force(&self, u: f64) -> f64 {
+        self.spring_c + self.spring_k * u
+    }
+}
+
+/// Limits on one simulation.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SimOptions {
+    /// At most this many phases (guards against runaway responses).
+    pub phase_cap: usize,
+}
+
+impl Default for SimOptions {
+    fn default() -> Self {
+        Self { phase_cap: 200_000 }
+    }
+}
+
+/// Receives the phases in time order.
+pub trait PhaseSink {
+    /// One phase; `last` is true for the phase that reaches the end time.
+    fn push(&mut self, phase: &Phase, last: bool);
+}
+
+impl PhaseSink for Vec<Phase> {
+    fn push(&mut self, phase: &Phase, _last: bool) {
+        Vec::push(self, *phase);
+    }
+}
+
+/// The model resolved per unit mass: what the engine integrates.
+#[derive(Debug, Clone, PartialEq)]
+pub struct System {
+    spring: Spring,
+    friction: Friction,
+    alpha: f64,
+    u0: f64,
+}
+
+impl System {
+    /// Resolve validated parameters of a model.
+    pub fn new(spec: &ModelSpec, p: &Params) -> Self {
+        let w = |f: f64| (2.0 * std::f64::consts::PI * f).powi(2);
+        let k0 = w(p.f0);
+        let spring = match spec.spring {
+            SpringKind::Linear => Spring::linear(k0),
+            SpringKind::Bilinear => Spring::bilinear(k0, w(p.f1), p.uy),
+            SpringKind::Trilinear => Spring::trilinear(k0, w(p.f1), w(p.f2), p.uy, p.u3),
+        };
+        let friction = match spec.friction {
+            FrictionKind::None => Friction::new(0.0, 0.0),
+            FrictionKind::Coulomb => Friction::new(p.uf0 * k0, 0.0),
+            FrictionKind::Lcfm => Friction::new(p.uf0 * k0, p.rf0 * k0),
+        };
+        let alpha = match spec.damper {
+            DamperKind::None => 0.0,
+            DamperKind::Viscous => p.zeta0 * k0.sqrt(),
+        };
+        Self {
+            spring,
+            friction,
+            alpha,
+            u0: p.u0,
+        }
+    }
+
+    /// The spring.
+    pub fn spring(&self) -> &Spring {
+        &self.spring
+    }
+
+    /// The slider.
+    pub fn friction(&self) -> &Friction {
+        &self.friction
+    }
+
+    /// Damper rate `c/m = 2 alpha` (1/s).
+    pub fn damper_rate(&self) -> f64 {
+        2.0 * self.alpha
+    }
+
+    /// Run from release at `t = 0` to `t_end`, handing each phase to `sink`.
+    pub fn run<S: PhaseSink>(&self, t_end: f64, opts: &SimOptions, sink: &mut S) -> Result<(), SimError> {
+        let (sp, fr) = (&self.spring, &self.friction);
+        let bound = 1e6 * self.u0.abs().max(1e-3);
+        let mut t = 0.0;
+        let mut u = self.u0;
+        let mut v = 0.0;
+        let mut branch = SpringBranch::Elastic {
+            u_i: u,
+            f_i: sp.virgin(u),
+        };
+        // Direction after a stop at u on branch b, or None if it stays (eq. 5.6).
+        let start = |b: SpringBranch, u: f64| {
+            let fs = sp.force(b, u);
+            (fs.abs() > fr.amplitude(u)).then(|| -fs.signum())
+        };
+        let mut dir = start(branch, u);
+        let mut count = 0usize;
+        while t < t_end {
+            count += 1;
+            if count > opts.phase_cap {
+                return Err(SimError::PhaseCap { cap: opts.phase_cap, t });
+            }
+            let Some(d) = dir else {
+                let fs = sp.force(branch, u);
+                let rest = Phase {
+                    kind: PhaseKind::Rest,
+                    t_start: t,
+                    t_end,
+                    u_start: u,
+                    v_start: 0.0,
+                    u_end: u,
+                    v_end: 0.0,
+                    dir: 0.0,
+                    sign_u: u.signum(),
+                    lin: LinearPhase::new(0.0, 0.0, 0.0),
+                    spring_k: 0.0,
+                    spring_c: fs,
+                };
+                sink.push(&rest, true);
+                return Ok(());
+            };
+            // Round-off must not leave a velocity against the direction.
+            if d * v < 0.0 {
+                v = 0.0;
+            }
+            let sign_u = if u > 0.0 {
+                1.0
+            } else if u < 0.0 {
+                -1.0
+            } else {
+                d
+            };
+            let (ks, cs, plastic) = sp.line(branch);
+            let (kf, cf) = fr.phase_terms(d, sign_u);
+            let lin = LinearPhase::new(self.alpha, ks + kf, cs + cf);
+
+            // The nearest displacement event ahead: the spring's, or u = 0.
+            let mut target = sp.next_event(branch, d).map(|(x, b)| (x, Some(b)));
+            if fr.has_slope() && sign_u != d {
+                let nearer = target.is_none_or(|(x, _)| d * x > 0.0);
+                if nearer {
+                    target = Some((0.0, None));
+                }
+            }
+            let horizon = t_end - t;
+            let t_rev = lin.reversal_time(u, v, d).filter(|&r| r.is_finite());
+            let t_hi = t_rev.map_or(horizon, |r| r.min(horizon));
+            let hit = target.and_then(|(x, b)| lin.time_to_reach(u, v, d, x, t_hi).map(|tau| (tau, x, b)));
+
+            let (tau, u1, v1, event) = match (hit, t_rev) {
+                (Some((tau, x, b)), r) if r.is_none_or(|r| tau < r) => {
+                    let (_, v1) = lin.state_at(u, v, tau);
+                    (tau, x, v1, Event::Threshold(b))
+                }
+                (_, Some(r)) if r <= horizon => {
+                    let (u1, _) = lin.state_at(u, v, r);
+                    (r, u1, 0.0, Event::Reversal)
+                }
+                _ => {
+                    let (u1, v1) = lin.state_at(u, v, horizon);
+                    (horizon, u1, v1, Event::End)
+                }
+            };
+            if !(u1.is_finite() && v1.is_finite() && tau.is_finite()) || u1.abs() > bound {
+                return Err(SimError::Diverged { t: t + tau, u: u1 });
+            }
+            let t1 = if matches!(event, Event::End) { t_end } else { t + tau };
+            if tau > 0.0 {
+                let phase = Phase {
+                    kind: match plastic {
+                        0 => PhaseKind::Elastic,
+                        1 => PhaseKind::Plastic1,
+                        2 => PhaseKind::Plastic2,
+                        _ => PhaseKind::Plastic3,
+                    },
+                    t_start: t,
+                    t_end: t1,
+                    u_start: u,
+                    v_start: v,
+                    u_end: u1,
+                    v_end: v1,
+                    dir: d,
+                    sign_u,
+                    lin,
+                    spring_k: ks,
+                    spring_c: cs,
+                };
+                sink.push(&phase, matches!(event, Event::End));
+            }
+            t = t1;
+            u = u1;
+            v = v1;
+            match event {
+                Event::Threshold(Some(b)) => branch = b,
+                // u = 0: only the sign of u changes, picked up next round.
+                Event::Threshold(None) | Event::End => {}
+                Event::Reversal => {
+                    branch = sp.unload(branch, u);
+                    dir = start(branch, u);
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Sample the acceleration on the grid `t_i = i dt`, `i < out.len()`,
+    /// into `out`. Allocates nothing.
+    pub fn accel_into(&self, dt: f64, out: &mut [f64], opts: &SimOptions) -> Result<(), SimError> {
+        check_grid(dt, out.len())?;
+        let t_end = dt * (out.len() - 1) as f64;
+        let mut sink = GridSampler::new(dt, out.len(), |i, u, v, ph: &Phase| out[i] = ph.lin.accel(u, v));
+        self.run(t_end, opts, &mut sink)
+    }
+}
+
+/// Why a phase ended.
+enum Event {
+    /// A displacement threshold; `Some` carries the new spring branch.
+    Threshold(Option<SpringBranch>),
+    Reversal,
+    End,
+}
+
+/// Reject a grid that cannot be sampled.
+pub(crate) fn check_grid(dt: f64, n: usize) -> Result<(), SimError> {
+    if !(dt.is_finite() && dt > 0.0) {
+        return Err(SimError::Grid {
+            name: "dt",
+            value: dt,
+            requirement: "must be a finite number > 0",
+        });
+    }
+    if n < 2 {
+        return Err(SimError::Grid {
+            name: "samples",
+            value: n as f64,
+            requirement: "need at least 2 samples (duration >= dt)",
+        });
+    }
+    Ok(())
+}
+
+/// Visits the grid samples `t_i = i dt` phase by phase: the first sample of a
+/// phase exactly, the rest by the exact one-step propagator (one fused
+/// multiply-add chain per sample instead of an `exp`, `sin`, `cos`).
+pub struct GridSampler<F> {
+    dt: f64,
+    n: usize,
+    next: usize,
+    visit: F,
+}
+
+/// Re-anchor the recurrence on the closed form this often, to bound
+/// round-off growth in long phases.
+const REANCHOR: usize = 64;
+
+impl<F: FnMut(usize, f64, f64, &Phase)> GridSampler<F> {
+    /// Sampler for `n` samples at spacing `dt`, calling `visit(i, u, v, phase)`.
+    pub fn new(dt: f64, n: usize, visit: F) -> Self {
+        Self { dt, n, next: 0, visit }
+    }
+}
+
+impl<F: FnMut(usize, f64, f64, &Phase)> PhaseSink for GridSampler<F> {
+    fn push(&mut self, ph: &Phase, last: bool) {
+        let mut i = self.next;
+        // Phases are half-open [t_start, t_end); the last one takes the end.
+        let inside = |i: usize| last || (i as f64) * self.dt < ph.t_end;
+        if !(i < self.n && inside(i)) {
+            return;
+        }
+        let step = if ph.kind == PhaseKind::Rest {
+            None
+        } else {
+            Some(ph.lin.step(self.dt))
+        };
+        let (mut u, mut v) = (0.0, 0.0);
+        let mut since = REANCHOR;
+        while i < self.n && inside(i) {
+            if since == REANCHOR {
+                (u, v) = ph.state_at(i as f64 * self.dt);
+                since = 0;
+            } else if let Some(s) = &step {
+                (u, v) = s.apply(u, v);
+            }
+            (self.visit)(i, u, v, ph);
+            since += 1;
+            i += 1;
+        }
+        self.next = i;
+    }
+}

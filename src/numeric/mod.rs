@@ -1,0 +1,3 @@
+//! Small numerical building blocks shared across the crate.
+
+pub mod quadrature;
