@@ -29,3 +29,4 @@
 
 pub mod model;
 pub mod numeric;
+pub mod report;

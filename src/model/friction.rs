@@ -35,7 +35,7 @@ impl Friction {
     /// Friction amplitude `F_F0 + k_F |u|` at `u`; the slider holds the mass
     /// at rest while the spring force does not exceed it (eq. 5.6).
     pub fn amplitude(&self, u: f64) -> f64 {
-        self.k_f.mul_add(u.abs(), self.f_f0)
+        self.k_f * u.abs() + self.f_f0
     }
 
     /// Sliding force when moving in direction `dir` at `u`.

@@ -44,7 +44,10 @@ impl ForwardModel for ModelSpec {
     }
 
     fn param_names(&self) -> Vec<String> {
-        ModelSpec::param_names(self).iter().map(|p| p.as_str().to_string()).collect()
+        ModelSpec::param_names(self)
+            .iter()
+            .map(|p| p.as_str().to_string())
+            .collect()
     }
 
     fn accel_into(&self, theta: &[f64], dt: f64, out: &mut [f64]) -> Result<(), SimError> {

@@ -28,8 +28,8 @@
 //! a(t) = -(2 alpha v + K u + C)
 //! ```
 //!
-//! `c`, `s` use a power series in `w2 t^2` near critical damping, and `E`
-//! switches to a divided difference of `expm1` or to its Taylor series where
+//! `c`, `s` stay accurate through critical damping (`sin x / w` and
+//! `expm1`), and `E` switches to a divided difference of `expm1` or to its Taylor series where
 //! the direct quotient would cancel, so every regime is evaluated to a few
 //! ulps. Reversal times are closed-form; displacement thresholds are found by
 //! safeguarded Newton iteration on an interval where `u` is monotonic.
@@ -54,9 +54,36 @@ pub struct LinearPhase {
     c: f64,
     /// `w2 = K - alpha^2`: positive under-damped, negative over-damped.
     w2: f64,
+    /// `sqrt(|w2|)`, the damped (or hyperbolic) frequency.
+    w: f64,
+    /// `1/w` and `1/K` (infinite when zero), to multiply in the hot path.
+    inv_w: f64,
+    inv_k: f64,
 }
 
-/// The propagator over a fixed step `h`: `[u, v] <- M [u, v] + m`.
+/// Outcome of a search for a displacement threshold.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Reach {
+    /// Reached after `t`, with velocity `v` there.
+    At { t: f64, v: f64 },
+    /// Not reached by the end of the interval, where the state is `(u, v)`.
+    Beyond { u: f64, v: f64 },
+}
+
+/// The decayed basis at one time `t`: `ec = e^(-alpha t) c(t)`,
+/// `es = e^(-alpha t) s(t)`, the step response `e = E(t)` and `d = e^(-alpha t)`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Basis {
+    pub ec: f64,
+    pub es: f64,
+    pub e: f64,
+    pub d: f64,
+}
+
+/// The propagator over a fixed step `h`: `[u, v] <- M [u, v] + b`; and the
+/// recurrence `a[n+2] = p a[n+1] + q a[n]` that the acceleration obeys
+/// (it solves the homogeneous equation), with `p = 2 e^(-alpha h) c(h)`,
+/// `q = -e^(-2 alpha h)`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Step {
     pub m11: f64,
@@ -65,21 +92,37 @@ pub struct Step {
     pub m22: f64,
     pub b1: f64,
     pub b2: f64,
+    pub p: f64,
+    pub q: f64,
 }
 
 impl Step {
+    /// The propagator over twice the step.
+    pub fn doubled(&self) -> Step {
+        let s = self;
+        Step {
+            m11: s.m11 * s.m11 + s.m12 * s.m21,
+            m12: s.m11 * s.m12 + s.m12 * s.m22,
+            m21: s.m21 * s.m11 + s.m22 * s.m21,
+            m22: s.m21 * s.m12 + s.m22 * s.m22,
+            b1: s.m11 * s.b1 + s.m12 * s.b2 + s.b1,
+            b2: s.m21 * s.b1 + s.m22 * s.b2 + s.b2,
+            // Power sums of the characteristic roots r1, r2:
+            // r1^2 + r2^2 = p^2 + 2q and (r1 r2)^2 = q^2.
+            p: s.p * s.p + 2.0 * s.q,
+            q: -(s.q * s.q),
+        }
+    }
+
     /// Advance a state by one step.
     #[inline(always)]
     pub fn apply(&self, u: f64, v: f64) -> (f64, f64) {
         (
-            self.m11.mul_add(u, self.m12.mul_add(v, self.b1)),
-            self.m21.mul_add(u, self.m22.mul_add(v, self.b2)),
+            self.m11 * u + self.m12 * v + self.b1,
+            self.m21 * u + self.m22 * v + self.b2,
         )
     }
 }
-
-/// Where `|w2| t^2` is below this, `c` and `s` come from their power series.
-const SERIES_Z: f64 = 0.5;
 
 impl LinearPhase {
     /// A phase with damping `alpha`, effective stiffness `k` and constant
@@ -90,6 +133,9 @@ impl LinearPhase {
             k,
             c,
             w2: k - alpha * alpha,
+            w: (k - alpha * alpha).abs().sqrt(),
+            inv_w: 1.0 / (k - alpha * alpha).abs().sqrt(),
+            inv_k: 1.0 / k,
         }
     }
 
@@ -111,55 +157,55 @@ impl LinearPhase {
     /// Acceleration of the state `(u, v)`.
     #[inline(always)]
     pub fn accel(&self, u: f64, v: f64) -> f64 {
-        -(2.0 * self.alpha).mul_add(v, self.k.mul_add(u, self.c))
+        -(2.0 * self.alpha * v + self.k * u + self.c)
     }
 
     /// `c(t)` and `s(t)` of the module formula (without the decay factor).
     #[inline]
     fn cs(&self, t: f64) -> (f64, f64) {
-        let z = self.w2 * t * t;
-        if z.abs() < SERIES_Z {
-            // c = sum (-z)^n/(2n)!, s = t sum (-z)^n/(2n+1)!; 12 terms reach
-            // 0.5^12/24! far below one ulp.
-            let mut cn = 1.0;
-            let mut sn = 1.0;
-            let mut c = 1.0;
-            let mut s = 1.0;
-            for n in 1..12 {
-                let n2 = 2.0 * n as f64;
-                cn *= -z / ((n2 - 1.0) * n2);
-                sn *= -z / (n2 * (n2 + 1.0));
-                c += cn;
-                s += sn;
-            }
-            (c, s * t)
-        } else if self.w2 > 0.0 {
-            let w = self.w2.sqrt();
-            let (sn, cs) = (w * t).sin_cos();
-            (cs, sn / w)
+        let x = self.w * t;
+        if self.w2 > 0.0 {
+            // sin(x)/w keeps full relative precision as w -> 0.
+            let (sn, cs) = x.sin_cos();
+            (cs, sn * self.inv_w)
+        } else if self.w2 < 0.0 {
+            // expm1 keeps sinh(x)/w accurate as w -> 0 (near critical).
+            let em1 = x.exp_m1();
+            let sinh = 0.5 * (em1 + em1 / (em1 + 1.0));
+            (sinh + 1.0 / (em1 + 1.0), sinh * self.inv_w)
         } else {
-            let g = (-self.w2).sqrt();
-            let x = g * t;
-            (x.cosh(), x.sinh() / g)
+            (1.0, t)
         }
     }
 
-    /// Decayed basis `(e^(-alpha t) c, e^(-alpha t) s)` and step response `E(t)`.
+    /// Decayed basis at `t`.
     #[inline]
-    fn basis(&self, t: f64) -> (f64, f64, f64) {
+    pub fn basis(&self, t: f64) -> Basis {
         let (c, s) = self.cs(t);
+        self.decayed(t, c, s)
+    }
+
+    #[inline]
+    fn decayed(&self, t: f64, c: f64, s: f64) -> Basis {
         let d = (-self.alpha * t).exp();
         let (ec, es) = (d * c, d * s);
-        (ec, es, self.step_response(t, ec, es))
+        Basis {
+            ec,
+            es,
+            e: self.step_response(t, ec, es),
+            d,
+        }
     }
 
     /// `E(t) = integral_0^t e^(-alpha r) s(r) dr`, the response to a unit
     /// constant force from rest.
     fn step_response(&self, t: f64, ec: f64, es: f64) -> f64 {
         let (a, k) = (self.alpha, self.k);
-        if k.abs() * t * t >= 1e-2 {
-            // The quotient loses at most ~2 digits here.
-            return (1.0 - a.mul_add(es, ec)) / k;
+        // The quotient's absolute error is about eps/|K|, which a
+        // displacement (times g0 ~ 1 m/s^2) can carry while |K| >= 1e-3;
+        // below that only if the relative cancellation is mild.
+        if k.abs() >= 1e-3 || k.abs() * t * t >= 1e-2 {
+            return (1.0 - (a * es + ec)) * self.inv_k;
         }
         if a * t >= 0.3 {
             // Real roots l1 = -K/(a+g) (slow), l2 = -(a+g) with g >= 0.94 a:
@@ -199,107 +245,179 @@ impl LinearPhase {
     /// Displacement and velocity a time `t >= 0` after the state `(u0, v0)`.
     #[inline]
     pub fn state_at(&self, u0: f64, v0: f64, t: f64) -> (f64, f64) {
-        let (ec, es, e) = self.basis(t);
-        let g0 = self.k.mul_add(u0, self.c);
-        let u = u0 + v0 * es - g0 * e;
-        let v = v0 * ec - self.alpha.mul_add(v0, g0) * es;
+        self.propagate(&self.basis(t), u0, v0)
+    }
+
+    /// The state `(u0, v0)` carried over the time of basis `b`.
+    #[inline]
+    pub fn propagate(&self, b: &Basis, u0: f64, v0: f64) -> (f64, f64) {
+        let g0 = self.k * u0 + self.c;
+        let u = u0 + v0 * b.es - g0 * b.e;
+        let v = v0 * b.ec - (self.alpha * v0 + g0) * b.es;
         (u, v)
     }
 
     /// The exact propagator over a step `h`.
     pub fn step(&self, h: f64) -> Step {
-        let (ec, es, e) = self.basis(h);
+        self.step_from(&self.basis(h))
+    }
+
+    /// The propagator over the time of basis `b` (which depends on `alpha`
+    /// and `K` only, so phases differing in `C` can share it).
+    pub fn step_from(&self, b: &Basis) -> Step {
         Step {
-            m11: 1.0 - self.k * e,
-            m12: es,
-            m21: -self.k * es,
-            m22: ec - self.alpha * es,
-            b1: -self.c * e,
-            b2: -self.c * es,
+            m11: 1.0 - self.k * b.e,
+            m12: b.es,
+            m21: -self.k * b.es,
+            m22: b.ec - self.alpha * b.es,
+            b1: -self.c * b.e,
+            b2: -self.c * b.es,
+            p: 2.0 * b.ec,
+            q: -b.d * b.d,
         }
     }
 
-    /// First time `t > 0` at which the velocity returns to zero, for a phase
+    /// First time `t >= 0` at which the velocity returns to zero, for a phase
     /// moving in direction `dir` (`+1` or `-1`) from `(u0, v0)` with
     /// `dir * v0 >= 0`; `None` when it never does, `Some(0)` when the state
     /// is already at rest with the acceleration against `dir`.
     pub fn reversal_time(&self, u0: f64, v0: f64, dir: f64) -> Option<f64> {
+        self.reversal(u0, v0, dir).map(|(t, _)| t)
+    }
+
+    /// [`LinearPhase::reversal_time`] and the displacement there. The basis
+    /// at the reversal follows from the geometry of the root, so no
+    /// `sin`/`cos` is needed.
+    pub fn reversal(&self, u0: f64, v0: f64, dir: f64) -> Option<(f64, f64)> {
         // dir*v(t) = e^(-alpha t) [vp c(t) - bp s(t)].
         // +0.0, never -0.0: atan2(-0.0, x < 0) would be -pi.
         let vp = if dir * v0 > 0.0 { dir * v0 } else { 0.0 };
-        let bp = dir * self.alpha.mul_add(v0, self.k.mul_add(u0, self.c));
-        if self.w2 > 0.0 {
-            let w = self.w2.sqrt();
+        let bp = dir * (self.alpha * v0 + (self.k * u0 + self.c));
+        let (t, c, s) = if self.w2 > 0.0 {
             // atan2 keeps full relative precision as w -> 0 when bp > 0.
-            let t = (w * vp).atan2(bp) / w;
-            return (t >= 0.0 && t.is_finite()).then_some(t);
-        }
-        if bp <= 0.0 {
-            return None;
-        }
-        if self.w2 == 0.0 {
-            return Some(vp / bp);
-        }
-        let g = (-self.w2).sqrt();
-        let x = g * vp / bp;
-        if x >= 1.0 {
-            return None;
-        }
-        let t = if x == 0.0 {
-            0.0
+            let (y, x) = (self.w * vp, bp);
+            let r = x.hypot(y);
+            if r == 0.0 {
+                return Some((0.0, u0));
+            }
+            (y.atan2(x) / self.w, x / r, vp / r)
         } else {
-            (vp / bp) * (x.atanh() / x)
+            if bp <= 0.0 {
+                return None;
+            }
+            let y = vp / bp;
+            if self.w2 == 0.0 {
+                (y, 1.0, y)
+            } else {
+                // tanh(w t) = w y.
+                let x = self.w * y;
+                if x >= 1.0 {
+                    return None;
+                }
+                let ch = 1.0 / ((1.0 - x) * (1.0 + x)).sqrt();
+                let t = if x == 0.0 { 0.0 } else { y * (x.atanh() / x) };
+                (t, ch, y * ch)
+            }
         };
-        Some(t)
+        if !(t >= 0.0 && t.is_finite()) {
+            return None;
+        }
+        let (u, _) = self.propagate(&self.decayed(t, c, s), u0, v0);
+        Some((t, u))
     }
 
-    /// Time in `(0, t_hi]` at which `u` reaches `target`, moving in direction
-    /// `dir` from `(u0, v0)`. The caller guarantees that `u` is monotonic on
-    /// `[0, t_hi]` (no velocity zero inside); `None` if the target is not
-    /// reached by `t_hi`.
-    pub fn time_to_reach(&self, u0: f64, v0: f64, dir: f64, target: f64, t_hi: f64) -> Option<f64> {
-        let f = |t: f64| {
-            let (u, v) = self.state_at(u0, v0, t);
-            (dir * (u - target), dir * v)
-        };
+    /// When `u` reaches `target` in `(0, t_hi]`, moving in direction `dir`
+    /// from `(u0, v0)`. The caller guarantees that `u` is monotonic on
+    /// `[0, t_hi]` (no velocity zero inside), and may pass the state at
+    /// `t_hi` when it already has it.
+    pub fn time_to_reach(
+        &self,
+        u0: f64,
+        v0: f64,
+        dir: f64,
+        target: f64,
+        t_hi: f64,
+        at_hi: Option<(f64, f64)>,
+    ) -> Reach {
+        // In the frame x = dir*(u - target): x increasing, x(0) < 0 wanted.
         let f0 = dir * (u0 - target);
         if f0 >= 0.0 {
-            return Some(0.0);
+            return Reach::At { t: 0.0, v: v0 };
         }
-        let (fh, vh) = f(t_hi);
+        let (uh, vh) = at_hi.unwrap_or_else(|| self.state_at(u0, v0, t_hi));
+        let fh = dir * (uh - target);
         if fh < 0.0 {
-            return None;
+            return Reach::Beyond { u: uh, v: vh };
         }
-        if fh == 0.0 {
-            return Some(t_hi);
-        }
-        // Safeguarded Newton (rtsafe): f is increasing on [lo, hi].
+        // Start from the cubic Hermite interpolant of the two end states,
+        // then Halley's method (the second derivative is the acceleration,
+        // free from the state) inside a shrinking bracket, bisection as
+        // fallback; done once |u - target| is at round-off level.
+        let tol = 4.0 * f64::EPSILON * u0.abs().max(target.abs());
         let (mut lo, mut hi) = (0.0, t_hi);
-        // Start Newton from the end where the velocity is larger.
-        let vp = dir * v0;
-        let (mut t, mut ft, mut dt) = if vh >= vp { (t_hi, fh, vh) } else { (0.0, f0, vp) };
-        let mut last_step = t_hi;
-        for _ in 0..200 {
-            if ft == 0.0 {
-                return Some(t);
+        let guess = hermite_root(f0, dir * v0 * t_hi, fh, dir * vh * t_hi) * t_hi;
+        let (ug, vg) = self.state_at(u0, v0, guess);
+        let (mut t, mut v, mut f) = (guess, vg, dir * (ug - target));
+        for _ in 0..100 {
+            if f.abs() <= tol {
+                break;
             }
-            if ft < 0.0 {
+            if f < 0.0 {
                 lo = t;
             } else {
                 hi = t;
             }
-            let newton = t - ft / dt;
-            let step_ok = dt > 0.0 && newton > lo && newton < hi && (ft / dt).abs() < 0.5 * last_step;
-            let next = if step_ok { newton } else { 0.5 * (lo + hi) };
-            last_step = (next - t).abs();
-            if last_step <= 4.0 * f64::EPSILON * next.abs().max(f64::MIN_POSITIVE) || hi - lo <= 4.0 * f64::EPSILON * hi {
-                return Some(next.clamp(lo, hi));
+            let d1 = dir * v;
+            let mut next = 0.5 * (lo + hi);
+            if d1 > 0.0 {
+                let d2 = dir * self.accel(target + dir * f, v);
+                let r1 = 1.0 / d1;
+                let newton = f * r1;
+                let den = 1.0 - 0.5 * newton * d2 * r1;
+                // Trust Halley's correction only near Newton's step.
+                let step = if (0.5..=2.0).contains(&den) {
+                    newton / den
+                } else {
+                    newton
+                };
+                if t - step > lo && t - step < hi {
+                    next = t - step;
+                }
             }
+            let (u1, v1) = self.state_at(u0, v0, next);
+            let done = hi - lo <= 2.0 * f64::EPSILON * hi;
             t = next;
-            (ft, dt) = f(t);
+            v = v1;
+            f = dir * (u1 - target);
+            if done {
+                break;
+            }
         }
-        Some(t)
+        Reach::At { t, v }
     }
+}
+
+/// Root in `[0, 1]` of the cubic Hermite interpolant with values `f0 < 0 <=
+/// f1` and scaled slopes `d0, d1 >= 0` at the ends (Newton from the secant).
+fn hermite_root(f0: f64, d0: f64, f1: f64, d1: f64) -> f64 {
+    let mut s = (-f0 / (f1 - f0)).clamp(0.0, 1.0);
+    // A rough root is enough: Halley's method polishes it.
+    for _ in 0..3 {
+        let s2 = s * s;
+        let s3 = s2 * s;
+        let p = (2.0 * s3 - 3.0 * s2 + 1.0) * f0
+            + (s3 - 2.0 * s2 + s) * d0
+            + (3.0 * s2 - 2.0 * s3) * f1
+            + (s3 - s2) * d1;
+        let dp = (6.0 * s2 - 6.0 * s) * (f0 - f1)
+            + (3.0 * s2 - 4.0 * s + 1.0) * d0
+            + (3.0 * s2 - 2.0 * s) * d1;
+        if dp <= 0.0 {
+            break;
+        }
+        s = (s - p / dp).clamp(0.0, 1.0);
+    }
+    s
 }
 
 #[cfg(test)]
@@ -367,39 +485,68 @@ mod tests {
         let p = LinearPhase::new(0.08, 7.0, 0.02);
         let s = p.step(0.005);
         let (mut u, mut v) = (0.1, 0.0);
+        let mut a = vec![p.accel(u, v)];
         for _ in 0..400 {
             (u, v) = s.apply(u, v);
+            a.push(p.accel(u, v));
         }
         let (ud, vd) = p.state_at(0.1, 0.0, 2.0);
         assert_relative_eq!(u, ud, epsilon = 1e-14);
         assert_relative_eq!(v, vd, epsilon = 1e-14);
+        // The acceleration obeys the two-term recurrence, also over 4 steps.
+        let s4 = s.doubled().doubled();
+        let s4d = p.step(0.02);
+        assert_relative_eq!(s4.m11, s4d.m11, epsilon = 1e-14);
+        assert_relative_eq!(s4.b2, s4d.b2, epsilon = 1e-14);
+        for n in 0..392 {
+            assert!((a[n + 2] - (s.p * a[n + 1] + s.q * a[n])).abs() < 1e-14);
+            assert!((a[n + 8] - (s4.p * a[n + 4] + s4.q * a[n])).abs() < 1e-14);
+        }
     }
 
     #[test]
     fn reversal_time_zeroes_the_velocity() {
-        for &(a, k, c) in &[(0.1, 10.0, 0.3), (0.5, 0.25, 0.1), (1.0, 0.2, 0.05), (0.3, 0.0, 0.2)] {
+        for &(a, k, c) in &[
+            (0.1, 10.0, 0.3),
+            (0.5, 0.25, 0.1),
+            (1.0, 0.2, 0.05),
+            (0.3, 0.0, 0.2),
+        ] {
             let p = LinearPhase::new(a, k, c);
-            let t = p.reversal_time(0.05, 0.2, 1.0).expect("reverses");
-            let (_, v) = p.state_at(0.05, 0.2, t);
+            let (t, ur) = p.reversal(0.05, 0.2, 1.0).expect("reverses");
+            let (u, v) = p.state_at(0.05, 0.2, t);
             assert!(v.abs() < 1e-15, "{a} {k} {c}: v = {v}");
+            assert!((u - ur).abs() < 1e-15);
             let (_, vh) = p.state_at(0.05, 0.2, 0.5 * t);
             assert!(vh > 0.0);
         }
         // From rest, under-damped: half a damped period.
         let p = LinearPhase::new(0.1, 4.0, -0.5);
         let t = p.reversal_time(0.2, 0.0, -1.0).unwrap();
-        assert_relative_eq!(t, std::f64::consts::PI / (4.0f64 - 0.01).sqrt(), epsilon = 1e-14);
+        assert_relative_eq!(
+            t,
+            std::f64::consts::PI / (4.0f64 - 0.01).sqrt(),
+            epsilon = 1e-14
+        );
         // From rest, over-damped: never.
-        assert!(LinearPhase::new(2.0, 1.0, 0.0).reversal_time(0.2, 0.0, -1.0).is_none());
+        assert!(LinearPhase::new(2.0, 1.0, 0.0)
+            .reversal_time(0.2, 0.0, -1.0)
+            .is_none());
     }
 
     #[test]
     fn threshold_time_hits_the_target() {
         let p = LinearPhase::new(0.1, 10.0, 0.3);
         let tr = p.reversal_time(0.1, 0.0, -1.0).unwrap();
-        let t = p.time_to_reach(0.1, 0.0, -1.0, -0.05, tr).unwrap();
-        let (u, _) = p.state_at(0.1, 0.0, t);
-        assert!((u + 0.05).abs() < 1e-15);
-        assert!(p.time_to_reach(0.1, 0.0, -1.0, -5.0, tr).is_none());
+        let Reach::At { t, v } = p.time_to_reach(0.1, 0.0, -1.0, -0.05, tr, None) else {
+            panic!("reaches")
+        };
+        let (u, vt) = p.state_at(0.1, 0.0, t);
+        assert!((u + 0.05).abs() < 1e-15, "u = {u}, t = {t}, tr = {tr}");
+        assert_eq!(v, vt);
+        assert!(matches!(
+            p.time_to_reach(0.1, 0.0, -1.0, -5.0, tr, None),
+            Reach::Beyond { .. }
+        ));
     }
 }

@@ -54,14 +54,21 @@ pub enum PhysicalError {
     Param(#[from] super::error::ParamError),
     #[error("released force {released} kN must exceed the static friction {friction} kN (both finite, friction >= 0)")]
     Forces { released: f64, friction: f64 },
-    #[error("the virgin spring force at u0 is {0} per unit mass; it must be > 0 for a mass to follow")]
+    #[error(
+        "the virgin spring force at u0 is {0} per unit mass; it must be > 0 for a mass to follow"
+    )]
     SpringForce(f64),
 }
 
 impl Physical {
     /// Eq. 8.1 with released force `released_kn` (`F0^n`) and static friction
     /// `static_friction_kn` (`F_fS`), both in kN.
-    pub fn from_params(spec: &ModelSpec, p: &Params, released_kn: f64, static_friction_kn: f64) -> Result<Self, PhysicalError> {
+    pub fn from_params(
+        spec: &ModelSpec,
+        p: &Params,
+        released_kn: f64,
+        static_friction_kn: f64,
+    ) -> Result<Self, PhysicalError> {
         spec.validate(p)?;
         if !(released_kn.is_finite() && static_friction_kn.is_finite())
             || static_friction_kn < 0.0
@@ -85,7 +92,11 @@ impl Physical {
             k0,
             k1: m * w(p.f1).powi(2),
             k2: m * w(p.f2).powi(2),
-            kf: if spec.friction == FrictionKind::Lcfm { p.rf0 * k0 } else { 0.0 },
+            kf: if spec.friction == FrictionKind::Lcfm {
+                p.rf0 * k0
+            } else {
+                0.0
+            },
             c: 2.0 * p.zeta0 * w(p.f0) * m,
         })
     }

@@ -47,7 +47,8 @@ impl Work {
     /// `|sum of works - kinetic change|` over the total absolute work.
     pub fn relative_imbalance(&self) -> f64 {
         let total = self.spring.abs() + self.friction.abs() + self.damper.abs();
-        (self.spring + self.friction + self.damper - self.kinetic_change).abs() / total.max(f64::MIN_POSITIVE)
+        (self.spring + self.friction + self.damper - self.kinetic_change).abs()
+            / total.max(f64::MIN_POSITIVE)
     }
 }
 
@@ -73,7 +74,12 @@ impl Response {
     }
 
     /// As [`Response::simulate`], with explicit limits.
-    pub fn simulate_with(spec: &ModelSpec, params: &Params, duration: f64, opts: &SimOptions) -> Result<Self, SimError> {
+    pub fn simulate_with(
+        spec: &ModelSpec,
+        params: &Params,
+        duration: f64,
+        opts: &SimOptions,
+    ) -> Result<Self, SimError> {
         spec.validate(params)?;
         if !(duration.is_finite() && duration > 0.0) {
             return Err(SimError::Grid {
@@ -123,7 +129,10 @@ impl Response {
 
     /// Number of reversals (velocity zeros) before the end or rest.
     pub fn reversals(&self) -> usize {
-        self.phases.iter().filter(|p| p.kind != PhaseKind::Rest && p.v_end == 0.0).count()
+        self.phases
+            .iter()
+            .filter(|p| p.kind != PhaseKind::Rest && p.v_end == 0.0)
+            .count()
     }
 
     /// Largest `|u'|` reached (at phase ends or interior extrema).
@@ -141,7 +150,9 @@ impl Response {
     }
 
     fn phase_index(&self, t: f64) -> usize {
-        self.phases.partition_point(|p| p.t_end <= t).min(self.phases.len() - 1)
+        self.phases
+            .partition_point(|p| p.t_end <= t)
+            .min(self.phases.len() - 1)
     }
 
     /// State and forces at time `t` (clamped to `[0, duration]`). At an
@@ -158,7 +169,10 @@ impl Response {
         let (f_friction, f_damper) = if p.kind == PhaseKind::Rest {
             (-f_spring, 0.0)
         } else {
-            (self.system.friction().force(u, p.dir), self.system.damper_rate() * v)
+            (
+                self.system.friction().force(u, p.dir),
+                self.system.damper_rate() * v,
+            )
         };
         Sample {
             t,
@@ -177,7 +191,9 @@ impl Response {
         let n = grid_len(dt, self.duration);
         check_grid(dt, n)?;
         let mut out = Vec::with_capacity(n);
-        let mut sampler = GridSampler::new(dt, n, |i, u, v, p: &Phase| out.push(self.sample(i as f64 * dt, u, v, p)));
+        let mut sampler = GridSampler::new(dt, n, |i, u, v, p: &Phase| {
+            out.push(self.sample(i as f64 * dt, u, v, p))
+        });
         for (k, p) in self.phases.iter().enumerate() {
             crate::model::simulate::PhaseSink::push(&mut sampler, p, k + 1 == self.phases.len());
         }

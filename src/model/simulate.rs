@@ -13,7 +13,7 @@ use serde::Serialize;
 use super::error::SimError;
 use super::friction::Friction;
 use super::params::Params;
-use super::phase::LinearPhase;
+use super::phase::{Basis, LinearPhase, Reach, Step};
 use super::spec::{DamperKind, FrictionKind, ModelSpec, SpringKind};
 use super::spring::{Spring, SpringBranch};
 
@@ -76,7 +76,8 @@ pub struct Phase {
 impl Phase {
     /// Displacement and velocity at absolute time `t` within the phase.
     pub fn state_at(&self, t: f64) -> (f64, f64) {
-        self.lin.state_at(self.u_start, self.v_start, t - self.t_start)
+        self.lin
+            .state_at(self.u_start, self.v_start, t - self.t_start)
     }
 
     /// Spring force per unit mass at `u`.
@@ -162,7 +163,12 @@ impl System {
     }
 
     /// Run from release at `t = 0` to `t_end`, handing each phase to `sink`.
-    pub fn run<S: PhaseSink>(&self, t_end: f64, opts: &SimOptions, sink: &mut S) -> Result<(), SimError> {
+    pub fn run<S: PhaseSink>(
+        &self,
+        t_end: f64,
+        opts: &SimOptions,
+        sink: &mut S,
+    ) -> Result<(), SimError> {
         let (sp, fr) = (&self.spring, &self.friction);
         let bound = 1e6 * self.u0.abs().max(1e-3);
         let mut t = 0.0;
@@ -182,7 +188,10 @@ impl System {
         while t < t_end {
             count += 1;
             if count > opts.phase_cap {
-                return Err(SimError::PhaseCap { cap: opts.phase_cap, t });
+                return Err(SimError::PhaseCap {
+                    cap: opts.phase_cap,
+                    t,
+                });
             }
             let Some(d) = dir else {
                 let fs = sp.force(branch, u);
@@ -227,19 +236,20 @@ impl System {
                 }
             }
             let horizon = t_end - t;
-            let t_rev = lin.reversal_time(u, v, d).filter(|&r| r.is_finite());
+            let rev = lin.reversal(u, v, d).filter(|r| r.0.is_finite());
+            let t_rev = rev.map(|r| r.0);
             let t_hi = t_rev.map_or(horizon, |r| r.min(horizon));
-            let hit = target.and_then(|(x, b)| lin.time_to_reach(u, v, d, x, t_hi).map(|tau| (tau, x, b)));
+            // At a reversal inside the record the end state is already known.
+            let at_hi = rev.filter(|r| r.0 <= horizon).map(|r| (r.1, 0.0));
+            let hit = target.map(|(x, b)| (x, b, lin.time_to_reach(u, v, d, x, t_hi, at_hi)));
 
-            let (tau, u1, v1, event) = match (hit, t_rev) {
-                (Some((tau, x, b)), r) if r.is_none_or(|r| tau < r) => {
-                    let (_, v1) = lin.state_at(u, v, tau);
+            let (tau, u1, v1, event) = match (hit, rev) {
+                (Some((x, b, Reach::At { t: tau, v: v1 })), r) if r.is_none_or(|r| tau < r.0) => {
                     (tau, x, v1, Event::Threshold(b))
                 }
-                (_, Some(r)) if r <= horizon => {
-                    let (u1, _) = lin.state_at(u, v, r);
-                    (r, u1, 0.0, Event::Reversal)
-                }
+                (_, Some((r, u_r))) if r <= horizon => (r, u_r, 0.0, Event::Reversal),
+                // The search already evaluated the state at the horizon.
+                (Some((_, _, Reach::Beyond { u: u1, v: v1 })), _) => (horizon, u1, v1, Event::End),
                 _ => {
                     let (u1, v1) = lin.state_at(u, v, horizon);
                     (horizon, u1, v1, Event::End)
@@ -248,7 +258,11 @@ impl System {
             if !(u1.is_finite() && v1.is_finite() && tau.is_finite()) || u1.abs() > bound {
                 return Err(SimError::Diverged { t: t + tau, u: u1 });
             }
-            let t1 = if matches!(event, Event::End) { t_end } else { t + tau };
+            let t1 = if matches!(event, Event::End) {
+                t_end
+            } else {
+                t + tau
+            };
             if tau > 0.0 {
                 let phase = Phase {
                     kind: match plastic {
@@ -292,11 +306,10 @@ impl System {
     pub fn accel_into(&self, dt: f64, out: &mut [f64], opts: &SimOptions) -> Result<(), SimError> {
         check_grid(dt, out.len())?;
         let t_end = dt * (out.len() - 1) as f64;
-        let mut sink = GridSampler::new(dt, out.len(), |i, u, v, ph: &Phase| out[i] = ph.lin.accel(u, v));
+        let mut sink = AccelSampler::new(dt, self.alpha, out);
         self.run(t_end, opts, &mut sink)
     }
 }
-
 /// Why a phase ended.
 enum Event {
     /// A displacement threshold; `Some` carries the new spring branch.
@@ -325,8 +338,9 @@ pub(crate) fn check_grid(dt: f64, n: usize) -> Result<(), SimError> {
 }
 
 /// Visits the grid samples `t_i = i dt` phase by phase: the first sample of a
-/// phase exactly, the rest by the exact one-step propagator (one fused
-/// multiply-add chain per sample instead of an `exp`, `sin`, `cos`).
+/// phase exactly, the rest by the exact propagator (a few multiply-adds per
+/// sample instead of an `exp`, `sin` and `cos`). Four interleaved lanes
+/// advanced by the four-step propagator keep the dependency chains short.
 pub struct GridSampler<F> {
     dt: f64,
     n: usize,
@@ -334,43 +348,255 @@ pub struct GridSampler<F> {
     visit: F,
 }
 
-/// Re-anchor the recurrence on the closed form this often, to bound
-/// round-off growth in long phases.
-const REANCHOR: usize = 64;
+/// Re-anchor the lanes on the closed form this often, to bound round-off
+/// growth in very long phases.
+const REANCHOR: usize = 4096;
 
 impl<F: FnMut(usize, f64, f64, &Phase)> GridSampler<F> {
     /// Sampler for `n` samples at spacing `dt`, calling `visit(i, u, v, phase)`.
     pub fn new(dt: f64, n: usize, visit: F) -> Self {
-        Self { dt, n, next: 0, visit }
+        Self {
+            dt,
+            n,
+            next: 0,
+            visit,
+        }
+    }
+
+    /// One past the last sample index inside the phase `[t_start, t_end)`.
+    fn end_index(&self, ph: &Phase, last: bool) -> usize {
+        if last {
+            self.n
+        } else {
+            first_index_at_or_after(ph.t_end, self.dt, self.next, self.n)
+        }
     }
 }
 
 impl<F: FnMut(usize, f64, f64, &Phase)> PhaseSink for GridSampler<F> {
     fn push(&mut self, ph: &Phase, last: bool) {
-        let mut i = self.next;
-        // Phases are half-open [t_start, t_end); the last one takes the end.
-        let inside = |i: usize| last || (i as f64) * self.dt < ph.t_end;
-        if !(i < self.n && inside(i)) {
+        let (start, end) = (self.next, self.end_index(ph, last));
+        self.next = end.max(start);
+        if start >= end {
             return;
         }
-        let step = if ph.kind == PhaseKind::Rest {
-            None
-        } else {
-            Some(ph.lin.step(self.dt))
-        };
-        let (mut u, mut v) = (0.0, 0.0);
-        let mut since = REANCHOR;
-        while i < self.n && inside(i) {
-            if since == REANCHOR {
-                (u, v) = ph.state_at(i as f64 * self.dt);
-                since = 0;
-            } else if let Some(s) = &step {
-                (u, v) = s.apply(u, v);
+        if ph.kind == PhaseKind::Rest {
+            for i in start..end {
+                (self.visit)(i, ph.u_start, 0.0, ph);
             }
-            (self.visit)(i, u, v, ph);
-            since += 1;
-            i += 1;
+            return;
         }
-        self.next = i;
+        let dt = self.dt;
+        let s1 = ph.lin.step(dt);
+        let s4 = s1.doubled().doubled();
+        let mut i = start;
+        while i < end {
+            // Anchor four lanes: one exact sample, three single steps.
+            let mut lane = [(0.0, 0.0); 4];
+            lane[0] = ph.state_at(i as f64 * dt);
+            for k in 1..4 {
+                lane[k] = s1.apply(lane[k - 1].0, lane[k - 1].1);
+            }
+            let stop = end.min(i + REANCHOR);
+            while i + 4 <= stop {
+                for (k, &(u, v)) in lane.iter().enumerate() {
+                    (self.visit)(i + k, u, v, ph);
+                }
+                for l in lane.iter_mut() {
+                    *l = s4.apply(l.0, l.1);
+                }
+                i += 4;
+            }
+            for (k, &(u, v)) in lane.iter().enumerate().take(stop - i) {
+                (self.visit)(i + k, u, v, ph);
+            }
+            i = stop;
+        }
+    }
+}
+
+/// First sample index at or after `t` (the grid is `i dt`), not before `from`.
+fn first_index_at_or_after(t: f64, dt: f64, from: usize, n: usize) -> usize {
+    let mut e = ((t / dt).ceil().max(0.0) as usize).clamp(from, n);
+    // The division may be off by an ulp: settle on the exact comparison.
+    while e > from && (e - 1) as f64 * dt >= t {
+        e -= 1;
+    }
+    while e < n && (e as f64) * dt < t {
+        e += 1;
+    }
+    e
+}
+
+/// Interleaved lanes of the acceleration recurrence: enough independent
+/// chains to hide the multiply-add latency.
+const LANES: usize = 4;
+
+/// The scalar recurrence amplifies round-off by about `1/sin(w LANES dt)`;
+/// re-anchoring it this often keeps the error near 1e-12 m/s^2 even at
+/// fine sampling, for one closed-form evaluation per 256 samples.
+const ACCEL_REANCHOR: usize = 256;
+
+/// The hot path: only the acceleration, which obeys the homogeneous two-term
+/// recurrence `a[n+2] = p a[n+1] + q a[n]` within a phase. Interleaved lanes
+/// (a stride-LANES recurrence) keep the dependency chains short; the one-step
+/// bases are cached per effective stiffness, which recurs from phase to phase.
+struct AccelSampler<'a> {
+    dt: f64,
+    next: usize,
+    out: &'a mut [f64],
+    cache: [(f64, Basis); 8],
+    cached: usize,
+    alpha: f64,
+}
+
+impl<'a> AccelSampler<'a> {
+    fn new(dt: f64, alpha: f64, out: &'a mut [f64]) -> Self {
+        let zero = Basis {
+            ec: 0.0,
+            es: 0.0,
+            e: 0.0,
+            d: 0.0,
+        };
+        Self {
+            dt,
+            next: 0,
+            out,
+            cache: [(f64::NAN, zero); 8],
+            cached: 0,
+            alpha,
+        }
+    }
+
+    fn step(&mut self, lin: &LinearPhase) -> Step {
+        let k = lin.stiffness();
+        if let Some((_, b)) = self.cache[..self.cached].iter().find(|(kc, _)| *kc == k) {
+            return lin.step_from(b);
+        }
+        let b = LinearPhase::new(self.alpha, k, 0.0).basis(self.dt);
+        let slot = self.cached % self.cache.len();
+        self.cache[slot] = (k, b);
+        self.cached = (self.cached + 1).min(self.cache.len());
+        lin.step_from(&b)
+    }
+}
+
+impl PhaseSink for AccelSampler<'_> {
+    fn push(&mut self, ph: &Phase, last: bool) {
+        let n = self.out.len();
+        let start = self.next;
+        let end = if last {
+            n
+        } else {
+            first_index_at_or_after(ph.t_end, self.dt, start, n)
+        };
+        self.next = end.max(start);
+        if start >= end {
+            return;
+        }
+        if ph.kind == PhaseKind::Rest {
+            self.out[start..end].fill(0.0);
+            return;
+        }
+        let s1 = self.step(&ph.lin);
+        let sl = s1.doubled().doubled();
+        let mut i = start;
+        while i < end {
+            let stop = end.min(i + ACCEL_REANCHOR);
+            // 2 LANES exact values seed the stride-LANES lanes.
+            let (mut u, mut v) = ph.state_at(i as f64 * self.dt);
+            let seed = (stop - i).min(2 * LANES);
+            for k in 0..seed {
+                if k > 0 {
+                    (u, v) = s1.apply(u, v);
+                }
+                self.out[i + k] = ph.lin.accel(u, v);
+            }
+            if stop - i > 2 * LANES {
+                let mut prev = [0.0; LANES];
+                let mut cur = [0.0; LANES];
+                prev.copy_from_slice(&self.out[i..i + LANES]);
+                cur.copy_from_slice(&self.out[i + LANES..i + 2 * LANES]);
+                let mut chunks = self.out[i + 2 * LANES..stop].chunks_exact_mut(LANES);
+                for chunk in &mut chunks {
+                    let mut a = [0.0; LANES];
+                    for k in 0..LANES {
+                        a[k] = sl.p * cur[k] + sl.q * prev[k];
+                    }
+                    chunk.copy_from_slice(&a);
+                    prev = cur;
+                    cur = a;
+                }
+                for (k, slot) in chunks.into_remainder().iter_mut().enumerate() {
+                    *slot = sl.p * cur[k] + sl.q * prev[k];
+                }
+            }
+            i = stop;
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::Response;
+
+    /// The hot path (acceleration recurrence) and the full response (state
+    /// propagator) sample the same record.
+    #[test]
+    fn accel_into_matches_the_full_response() {
+        for (spec, test) in [
+            ("trilinear+lcfm+viscous", 5),
+            ("bilinear+coulomb", 3),
+            ("trilinear", 8),
+            ("linear+viscous", 6),
+        ] {
+            let spec: ModelSpec = spec.parse().unwrap();
+            let p = spec.restrict(&Params::table_8_1(test).unwrap()).unwrap();
+            for &(dt, n) in &[(0.005, 2001usize), (0.0007, 30_000), (0.05, 7)] {
+                let duration = dt * (n - 1) as f64;
+                let r = Response::simulate(&spec, &p, duration).unwrap();
+                let full = r.sample_grid(dt).unwrap();
+                assert_eq!(full.len(), n);
+                let mut a = vec![f64::NAN; n];
+                System::new(&spec, &p)
+                    .accel_into(dt, &mut a, &SimOptions::default())
+                    .unwrap();
+                for (i, (s, &ai)) in full.iter().zip(&a).enumerate() {
+                    assert!(
+                        (s.a - ai).abs() < 1e-11,
+                        "{spec} dt={dt} i={i}: {} vs {ai}",
+                        s.a
+                    );
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn bad_grids_are_rejected() {
+        let sys = System::new(&ModelSpec::FULL, &Params::table_8_1(5).unwrap());
+        let mut out = vec![0.0; 10];
+        for dt in [0.0, -1.0, f64::NAN, f64::INFINITY] {
+            assert!(matches!(
+                sys.accel_into(dt, &mut out, &SimOptions::default()),
+                Err(SimError::Grid { name: "dt", .. })
+            ));
+        }
+        assert!(sys
+            .accel_into(0.01, &mut out[..1], &SimOptions::default())
+            .is_err());
+    }
+
+    #[test]
+    fn the_phase_cap_stops_a_long_run_with_an_error() {
+        let spec: ModelSpec = "linear".parse().unwrap();
+        let p = spec.restrict(&Params::table_8_1(5).unwrap()).unwrap();
+        let opts = SimOptions { phase_cap: 10 };
+        let mut out = vec![0.0; 20_001];
+        let err = System::new(&spec, &p)
+            .accel_into(0.005, &mut out, &opts)
+            .unwrap_err();
+        assert!(matches!(err, SimError::PhaseCap { cap: 10, .. }), "{err}");
     }
 }

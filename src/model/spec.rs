@@ -79,11 +79,18 @@ impl ModelSpec {
 
     /// The parameters this model needs, in the paper's order.
     pub fn param_names(&self) -> Vec<ParamName> {
-        ParamName::ALL.into_iter().filter(|&p| self.uses(p)).collect()
+        ParamName::ALL
+            .into_iter()
+            .filter(|&p| self.uses(p))
+            .collect()
     }
 
     fn names_list(&self) -> String {
-        self.param_names().iter().map(|p| p.as_str()).collect::<Vec<_>>().join(", ")
+        self.param_names()
+            .iter()
+            .map(|p| p.as_str())
+            .collect::<Vec<_>>()
+            .join(", ")
     }
 
     /// Parameters from a name-value map: every needed name present, no
@@ -283,13 +290,33 @@ mod tests {
 
     #[test]
     fn specs_round_trip() {
-        for s in ["linear", "bilinear+coulomb", "trilinear+lcfm+viscous", "bilinear+viscous"] {
+        for s in [
+            "linear",
+            "bilinear+coulomb",
+            "trilinear+lcfm+viscous",
+            "bilinear+viscous",
+        ] {
             assert_eq!(s.parse::<ModelSpec>().unwrap().to_string(), s);
         }
-        assert_eq!("viscous+trilinear+none".parse::<ModelSpec>().unwrap().to_string(), "trilinear+viscous");
-        assert!(matches!("bilinear+trilinear".parse::<ModelSpec>(), Err(SpecError::Duplicate { .. })));
-        assert!(matches!("coulomb".parse::<ModelSpec>(), Err(SpecError::NoSpring(_))));
-        assert!(matches!("trilinear+magic".parse::<ModelSpec>(), Err(SpecError::Unknown(_))));
+        assert_eq!(
+            "viscous+trilinear+none"
+                .parse::<ModelSpec>()
+                .unwrap()
+                .to_string(),
+            "trilinear+viscous"
+        );
+        assert!(matches!(
+            "bilinear+trilinear".parse::<ModelSpec>(),
+            Err(SpecError::Duplicate { .. })
+        ));
+        assert!(matches!(
+            "coulomb".parse::<ModelSpec>(),
+            Err(SpecError::NoSpring(_))
+        ));
+        assert!(matches!(
+            "trilinear+magic".parse::<ModelSpec>(),
+            Err(SpecError::Unknown(_))
+        ));
     }
 
     #[test]
@@ -311,14 +338,24 @@ mod tests {
     fn maps_need_exactly_the_model_parameters() {
         let m: ModelSpec = "bilinear+coulomb".parse().unwrap();
         let full = Params::table_8_1(5).unwrap();
-        let mut map: BTreeMap<_, _> = m.param_names().into_iter().map(|p| (p, full.get(p))).collect();
+        let mut map: BTreeMap<_, _> = m
+            .param_names()
+            .into_iter()
+            .map(|p| (p, full.get(p)))
+            .collect();
         let p = m.params_from_map(&map).unwrap();
         assert_eq!(p.f2, p.f1);
         assert_eq!(p.rf0, 0.0);
         map.insert(ParamName::F2, 0.3);
-        assert!(matches!(m.params_from_map(&map), Err(ParamError::Unused { name: "f2", .. })));
+        assert!(matches!(
+            m.params_from_map(&map),
+            Err(ParamError::Unused { name: "f2", .. })
+        ));
         map.remove(&ParamName::F2);
         map.remove(&ParamName::UF0);
-        assert!(matches!(m.params_from_map(&map), Err(ParamError::Missing { name: "uF0", .. })));
+        assert!(matches!(
+            m.params_from_map(&map),
+            Err(ParamError::Missing { name: "uF0", .. })
+        ));
     }
 }

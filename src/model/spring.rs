@@ -182,7 +182,8 @@ impl Spring {
                 // On an envelope the motion is always forward in the
                 // mirrored coordinate x = side*u.
                 let hi = self.segs[seg].hi;
-                hi.is_finite().then(|| (side * hi, SpringBranch::Plastic { side, seg: seg + 1 }))
+                hi.is_finite()
+                    .then(|| (side * hi, SpringBranch::Plastic { side, seg: seg + 1 }))
             }
         }
     }

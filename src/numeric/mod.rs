@@ -1,3 +1,4 @@
 //! Small numerical building blocks shared across the crate.
 
+pub mod ode;
 pub mod quadrature;

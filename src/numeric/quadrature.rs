@@ -57,7 +57,12 @@ impl GaussLegendre {
     /// Integral of `f` over `[a, b]`.
     pub fn integrate(&self, a: f64, b: f64, mut f: impl FnMut(f64) -> f64) -> f64 {
         let (m, h) = (0.5 * (a + b), 0.5 * (b - a));
-        h * self.nodes.iter().zip(&self.weights).map(|(&x, &w)| w * f(m + h * x)).sum::<f64>()
+        h * self
+            .nodes
+            .iter()
+            .zip(&self.weights)
+            .map(|(&x, &w)| w * f(m + h * x))
+            .sum::<f64>()
     }
 }
 

@@ -1,0 +1,47 @@
+//! `hbis convert`: Table 8.2 quantities by eq. 8.1.
+
+use std::path::PathBuf;
+
+use anyhow::Result;
+use hbis::model::physical::Physical;
+
+use super::inputs;
+
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// JSON file of parameters.
+    #[arg(long)]
+    params: PathBuf,
+    /// Model spec the parameters belong to.
+    #[arg(long, default_value = "trilinear+lcfm+viscous")]
+    model: String,
+    /// Released force F0^n (kN).
+    #[arg(long, allow_negative_numbers = true)]
+    released_force: f64,
+    /// Static friction force F_fS (kN).
+    #[arg(long, allow_negative_numbers = true)]
+    static_friction: f64,
+    /// Print a JSON object (keys m, k0, k1, k2, kF, c) instead of a table.
+    #[arg(long)]
+    json: bool,
+}
+
+pub fn run(a: Args) -> Result<()> {
+    let spec = inputs::spec(&a.model)?;
+    let params = inputs::params(&a.params, &spec)?;
+    let q = Physical::from_params(&spec, &params, a.released_force, a.static_friction)?;
+    if a.json {
+        println!("{}", serde_json::to_string_pretty(&q)?);
+    } else {
+        print!("{}", table(&q));
+    }
+    Ok(())
+}
+
+/// The quantities as an aligned table with units.
+pub fn table(q: &Physical) -> String {
+    format!(
+        "m  = {:10.1} t\nk0 = {:10.1} kN/m\nk1 = {:10.1} kN/m\nk2 = {:10.1} kN/m\nkF = {:10.1} kN/m\nc  = {:10.1} kNs/m\n",
+        q.m, q.k0, q.k1, q.k2, q.kf, q.c
+    )
+}

@@ -1,0 +1,5 @@
+//! Outputs: CSV tables and figures.
+
+pub mod csv;
+#[cfg(feature = "figures")]
+pub mod figures;
