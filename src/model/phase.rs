@@ -296,7 +296,8 @@ impl LinearPhase {
         let (t, c, s) = if self.w2 > 0.0 {
             // atan2 keeps full relative precision as w -> 0 when bp > 0.
             let (y, x) = (self.w * vp, bp);
-            let r = x.hypot(y);
+            // Plain sqrt: libm hypot is slow and these values cannot overflow.
+            let r = (x * x + y * y).sqrt();
             if r == 0.0 {
                 return Some((0.0, u0));
             }

@@ -41,14 +41,17 @@ pub struct Work {
     pub damper: f64,
     /// `v(T)^2/2 - v(0)^2/2`.
     pub kinetic_change: f64,
+    /// Energy exchanged: the sum over phases of each device's `|work|` plus
+    /// the peak kinetic energy (a phase from rest to rest exchanges energy
+    /// that its net work does not show); the scale the balance is judged on.
+    pub gross: f64,
 }
 
 impl Work {
-    /// `|sum of works - kinetic change|` over the total absolute work.
+    /// `|sum of works - kinetic change|` over the energy exchanged.
     pub fn relative_imbalance(&self) -> f64 {
-        let total = self.spring.abs() + self.friction.abs() + self.damper.abs();
         (self.spring + self.friction + self.damper - self.kinetic_change).abs()
-            / total.max(f64::MIN_POSITIVE)
+            / self.gross.max(f64::MIN_POSITIVE)
     }
 }
 
@@ -205,13 +208,17 @@ impl Response {
         let gl = GaussLegendre::new(16);
         let fr = self.system.friction();
         let c = self.system.damper_rate();
-        let (mut ws, mut wf, mut wd) = (0.0, 0.0, 0.0);
+        let (mut ws, mut wf, mut wd, mut gross) = (0.0, 0.0, 0.0, 0.0);
         for p in self.phases.iter().filter(|p| p.kind != PhaseKind::Rest) {
             let (u0, u1) = (p.u_start, p.u_end);
-            let half_sq = 0.5 * (u1 * u1 - u0 * u0);
-            ws -= p.spring_c * (u1 - u0) + p.spring_k * half_sq;
+            // Factored as (u1-u0)(u1+u0) against cancellation.
+            let (du, half_sum) = (u1 - u0, 0.5 * (u1 + u0));
+            let w_s = -(p.spring_c + p.spring_k * half_sum) * du;
             let (kf, cf) = fr.phase_terms(p.dir, p.sign_u);
-            wf -= cf * (u1 - u0) + kf * half_sq;
+            let w_f = -(cf + kf * half_sum) * du;
+            ws += w_s;
+            wf += w_f;
+            gross += w_s.abs() + w_f.abs();
             if c > 0.0 {
                 // Independent quadrature of c v^2 over pieces short against
                 // the phase's own time scales.
@@ -219,10 +226,13 @@ impl Response {
                 let len = p.t_end - p.t_start;
                 let pieces = ((len * rate / 0.5).ceil() as usize).max(1);
                 let h = len / pieces as f64;
+                let mut w_d = 0.0;
                 for j in 0..pieces {
                     let a = p.t_start + j as f64 * h;
-                    wd -= c * gl.integrate(a, a + h, |t| p.state_at(t).1.powi(2));
+                    w_d -= c * gl.integrate(a, a + h, |t| p.state_at(t).1.powi(2));
                 }
+                wd += w_d;
+                gross += w_d.abs();
             }
         }
         let v_end = self.phases.last().map_or(0.0, |p| p.v_end);
@@ -231,6 +241,7 @@ impl Response {
             friction: wf,
             damper: wd,
             kinetic_change: 0.5 * v_end * v_end,
+            gross: gross + 0.5 * self.peak_velocity().powi(2),
         }
     }
 }

@@ -1,0 +1,220 @@
+//! The real `hbis` binary, run in temporary folders.
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+const TEST5: &str = r#"{"u0": 0.1166, "uy": 0.01167, "uF0": 0.00234, "rF0": 0.00235, "zeta0": 0.02256,
+ "f0": 0.53979, "f1": 0.41723, "f2": 0.37477, "u3": 0.08252}"#;
+
+fn hbis(dir: &Path, args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_hbis"))
+        .current_dir(dir)
+        .args(args)
+        .output()
+        .expect("runs")
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+fn write(dir: &Path, name: &str, text: &str) {
+    std::fs::write(dir.join(name), text).unwrap();
+}
+
+#[test]
+fn simulate_writes_the_documented_csv() {
+    let d = tempfile::tempdir().unwrap();
+    write(d.path(), "p.json", TEST5);
+    let o = hbis(
+        d.path(),
+        &[
+            "simulate",
+            "--model",
+            "trilinear+lcfm+viscous",
+            "--params",
+            "p.json",
+            "--dt",
+            "0.005",
+            "--duration",
+            "10",
+            "--out",
+            "r.csv",
+            "--phases",
+            "ph.csv",
+        ],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = std::fs::read_to_string(d.path().join("r.csv")).unwrap();
+    let mut lines = text.lines();
+    assert_eq!(
+        lines.next().unwrap(),
+        "t,u,v,a,f_spring,f_friction,f_damper,phase"
+    );
+    let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
+    assert_eq!(rows.len(), 2001);
+    assert_eq!(rows[0][0], "0.0");
+    assert_eq!(rows[0][1], "0.1166");
+    // a = -(f_spring + f_friction + f_damper) on every row.
+    for r in &rows {
+        let x: Vec<f64> = r[..7].iter().map(|s| s.parse().unwrap()).collect();
+        assert!((x[3] + x[4] + x[5] + x[6]).abs() < 1e-12, "{r:?}");
+    }
+    assert_eq!(rows[0][7], "elastic");
+    assert_eq!(rows[2000][7], "rest");
+    assert!(
+        stderr(&o).contains("residual displacement: 3.04 mm"),
+        "{}",
+        stderr(&o)
+    );
+    let phases = std::fs::read_to_string(d.path().join("ph.csv")).unwrap();
+    assert!(phases.starts_with("kind,t_start,t_end,u_start,u_end,direction\nelastic,0.0,"));
+}
+
+#[test]
+fn simulate_without_out_writes_csv_to_stdout() {
+    let d = tempfile::tempdir().unwrap();
+    write(d.path(), "p.json", r#"{"u0": 0.05, "f0": 0.5}"#);
+    let o = hbis(
+        d.path(),
+        &[
+            "simulate",
+            "--model",
+            "linear",
+            "--params",
+            "p.json",
+            "--dt",
+            "0.1",
+            "--duration",
+            "1",
+        ],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = String::from_utf8(o.stdout).unwrap();
+    assert_eq!(out.lines().count(), 12);
+}
+
+#[test]
+fn bad_input_exits_2_with_one_line_naming_the_field() {
+    let d = tempfile::tempdir().unwrap();
+    write(d.path(), "p.json", TEST5);
+    write(
+        d.path(),
+        "unknown.json",
+        r#"{"u0": 0.1, "f0": 0.5, "fz": 1}"#,
+    );
+    write(d.path(), "missing.json", r#"{"u0": 0.1}"#);
+    write(d.path(), "invalid.json", &TEST5.replace("0.08252", "0.005"));
+    write(d.path(), "text.json", r#"{"u0": "big", "f0": 0.5}"#);
+    write(d.path(), "broken.json", r#"{"u0": 0.1,"#);
+    let sim = |params: &str, model: &str, dt: &str| {
+        hbis(
+            d.path(),
+            &[
+                "simulate",
+                "--model",
+                model,
+                "--params",
+                params,
+                "--dt",
+                dt,
+                "--duration",
+                "10",
+                "--out",
+                "x.csv",
+            ],
+        )
+    };
+    let full = "trilinear+lcfm+viscous";
+    let cases = [
+        (sim("unknown.json", "linear", "0.01"), "fz"),
+        (
+            sim("missing.json", "linear", "0.01"),
+            "missing parameter `f0`",
+        ),
+        (sim("invalid.json", full, "0.01"), "u3"),
+        (sim("text.json", "linear", "0.01"), "u0"),
+        (sim("broken.json", "linear", "0.01"), "broken.json"),
+        (sim("nowhere.json", "linear", "0.01"), "nowhere.json"),
+        (sim("p.json", full, "0"), "dt"),
+        (sim("p.json", full, "-0.5"), "dt"),
+        (sim("p.json", "trilinear+magic", "0.01"), "magic"),
+        (
+            sim("p.json", "bilinear+coulomb", "0.01"),
+            "not used by model",
+        ),
+    ];
+    for (o, needle) in cases {
+        let e = stderr(&o);
+        assert_eq!(o.status.code(), Some(2), "{needle}: {e}");
+        assert!(e.contains(needle), "`{needle}` not in: {e}");
+        assert_eq!(e.trim_end().lines().count(), 1, "one line: {e}");
+        assert!(!e.contains("panicked"), "{e}");
+    }
+    assert!(
+        !d.path().join("x.csv").exists(),
+        "nothing written on bad input"
+    );
+}
+
+#[test]
+fn convert_prints_table_8_2_quantities() {
+    let d = tempfile::tempdir().unwrap();
+    write(d.path(), "p.json", TEST5);
+    let o = hbis(
+        d.path(),
+        &[
+            "convert",
+            "--params",
+            "p.json",
+            "--released-force",
+            "1180",
+            "--static-friction",
+            "100",
+            "--json",
+        ],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let want = [
+        ("m", 1333.0),
+        ("k0", 15332.0),
+        ("k1", 9160.0),
+        ("k2", 7390.0),
+        ("kF", 36.0),
+        ("c", 204.0),
+    ];
+    for (k, w) in want {
+        let g = v[k].as_f64().unwrap_or_else(|| panic!("key {k} in {v}"));
+        assert!((g - w).abs() <= (1e-3 * w).max(1.0), "{k}: {g} vs {w}");
+    }
+    let o = hbis(
+        d.path(),
+        &[
+            "convert",
+            "--params",
+            "p.json",
+            "--released-force",
+            "90",
+            "--static-friction",
+            "100",
+        ],
+    );
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("released force"));
+}
+
+#[test]
+fn demo_runs_on_the_embedded_default() {
+    let d = tempfile::tempdir().unwrap();
+    let o = hbis(d.path(), &["demo", "--out", "demo"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = String::from_utf8(o.stdout).unwrap();
+    assert!(out.contains("residual displacement: 3.04 mm"), "{out}");
+    assert!(out.contains("m  =     1333.1 t"), "{out}");
+    assert!(d.path().join("demo/test5.csv").exists());
+    if cfg!(feature = "figures") {
+        let png = std::fs::metadata(d.path().join("demo/test5.png")).unwrap();
+        assert!(png.len() > 10_000);
+    }
+}
