@@ -205,7 +205,7 @@ impl Dopri5 {
 
     /// Largest step, `> 0` (infinite allowed).
     pub fn with_h_max(mut self, h_max: f64) -> Result<Self, OdeError> {
-        if !(h_max > 0.0) {
+        if h_max.is_nan() || h_max <= 0.0 {
             return Err(Self::invalid("h_max", h_max, "must be > 0"));
         }
         self.h_max = h_max;
@@ -259,7 +259,7 @@ impl Dopri5 {
         if n_events > MAX_EVENTS {
             return Err(Self::invalid("n_events", n_events as f64, "must be <= 16"));
         }
-        if !(t_end > t0) || !t0.is_finite() || !t_end.is_finite() {
+        if !t0.is_finite() || !t_end.is_finite() || t_end <= t0 {
             return Err(Self::invalid("t_end", t_end, "must be finite and > t0"));
         }
         let finite = |y: &[f64; N]| y.iter().all(|x| x.is_finite());
@@ -594,7 +594,7 @@ mod tests {
                 y[1] - 2.0 * y[2] - mu1 * y[1] / d1 - mu * y[1] / d2,
             ]
         };
-        let period = 17.065_216_560_157_962;
+        let period = 17.065_216_560_157_96;
         let ode = Dopri5::new()
             .with_rtol(1e-7)
             .unwrap()

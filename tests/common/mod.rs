@@ -112,7 +112,7 @@ pub fn random_case(rng: &mut StdRng, i: usize) -> Case {
             p.zeta0 = rng.random_range(0.02..0.15);
             p.u0 = p.u3 * rng.random_range(0.8..1.6);
         }
-        Regime::Undamped => spec = format!("{}", SPRINGS[rng.random_range(0..3)]),
+        Regime::Undamped => spec = SPRINGS[rng.random_range(0..3)].to_string(),
     }
     let spec: ModelSpec = spec.parse().expect("valid spec");
     let params = spec.restrict(&p).expect("valid random parameters");

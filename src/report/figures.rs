@@ -1,0 +1,314 @@
+//! Figures (PNG or SVG, by the file extension) drawn with `plotters`.
+//!
+//! [`release_test_figure`] reproduces the six panels of the paper's
+//! Fig. 7.1: acceleration (with a measured record if given), acceleration
+//! coloured by phase, displacement, velocity, and the force-displacement
+//! loops of the rubber bearings and of the slider.
+
+use std::path::{Path, PathBuf};
+use std::sync::OnceLock;
+
+use plotters::coord::Shift;
+use plotters::prelude::*;
+use thiserror::Error;
+
+use crate::model::{PhaseKind, Response, Sample, SimError};
+
+/// Errors while drawing a figure.
+#[derive(Debug, Error)]
+pub enum FigureError {
+    #[error("figure {path}: the file name must end in .png or .svg")]
+    Format { path: PathBuf },
+    #[error("figure {path}: {message}")]
+    Draw { path: PathBuf, message: String },
+    #[error(transparent)]
+    Sim(#[from] SimError),
+}
+
+/// A measured acceleration record to draw under the model's.
+#[derive(Debug, Clone, Copy)]
+pub struct Measured<'a> {
+    /// Times (s).
+    pub t: &'a [f64],
+    /// Accelerations (m/s^2).
+    pub a: &'a [f64],
+    /// Legend label.
+    pub label: &'a str,
+}
+
+const FONT: &str = "sans-serif";
+
+/// Register the embedded font once; plotters' `ab_glyph` backend has none.
+fn font_ready() -> bool {
+    static READY: OnceLock<bool> = OnceLock::new();
+    *READY.get_or_init(|| {
+        plotters::style::register_font(
+            FONT,
+            FontStyle::Normal,
+            include_bytes!("../../assets/DejaVuSans.ttf"),
+        )
+        .is_ok()
+    })
+}
+
+/// One colour per phase kind.
+fn phase_colour(k: PhaseKind) -> RGBColor {
+    match k {
+        PhaseKind::Elastic => RGBColor(31, 119, 180),
+        PhaseKind::Plastic1 => RGBColor(255, 127, 14),
+        PhaseKind::Plastic2 => RGBColor(44, 160, 44),
+        PhaseKind::Plastic3 => RGBColor(214, 39, 40),
+        PhaseKind::Rest => RGBColor(127, 127, 127),
+    }
+}
+
+/// A curve: points, colour, legend label (empty for none).
+struct Curve {
+    points: Vec<(f64, f64)>,
+    colour: RGBColor,
+    label: String,
+}
+
+/// Range of the data with a 5 % margin; never empty.
+fn range(values: impl Iterator<Item = f64>) -> std::ops::Range<f64> {
+    let (lo, hi) = values
+        .filter(|x| x.is_finite())
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), x| {
+            (lo.min(x), hi.max(x))
+        });
+    if !lo.is_finite() {
+        return -1.0..1.0;
+    }
+    let pad = if hi - lo > 1e-12 * (1.0 + hi.abs().max(lo.abs())) {
+        0.05 * (hi - lo)
+    } else {
+        1.0f64.max(hi.abs()) * 0.1
+    };
+    (lo - pad)..(hi + pad)
+}
+
+fn panel<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    caption: &str,
+    x_label: &str,
+    y_label: &str,
+    curves: &[Curve],
+) -> Result<(), String> {
+    let xs = range(curves.iter().flat_map(|c| c.points.iter().map(|p| p.0)));
+    let ys = range(curves.iter().flat_map(|c| c.points.iter().map(|p| p.1)));
+    let mut chart = ChartBuilder::on(area)
+        .caption(caption, (FONT, 22))
+        .margin(12)
+        .x_label_area_size(40)
+        .y_label_area_size(70)
+        .build_cartesian_2d(xs, ys)
+        .map_err(|e| e.to_string())?;
+    chart
+        .configure_mesh()
+        .x_desc(x_label)
+        .y_desc(y_label)
+        .label_style((FONT, 15))
+        .axis_desc_style((FONT, 16))
+        .light_line_style(WHITE.mix(0.0))
+        .draw()
+        .map_err(|e| e.to_string())?;
+    let mut labelled = false;
+    for c in curves {
+        let series = chart
+            .draw_series(LineSeries::new(
+                c.points.iter().copied(),
+                c.colour.stroke_width(2),
+            ))
+            .map_err(|e| e.to_string())?;
+        if !c.label.is_empty() {
+            let colour = c.colour;
+            series.label(c.label.clone()).legend(move |(x, y)| {
+                PathElement::new([(x, y), (x + 20, y)], colour.stroke_width(3))
+            });
+            labelled = true;
+        }
+    }
+    if labelled {
+        chart
+            .configure_series_labels()
+            .label_font((FONT, 15))
+            .background_style(WHITE.mix(0.8))
+            .border_style(BLACK)
+            .position(SeriesLabelPosition::UpperRight)
+            .draw()
+            .map_err(|e| e.to_string())?;
+    }
+    Ok(())
+}
+
+/// Split samples into maximal runs of one phase kind, so that panel (b)
+/// shows the jumps between phases as breaks.
+fn runs_by_phase(samples: &[Sample]) -> Vec<Curve> {
+    let mut out: Vec<Curve> = Vec::new();
+    let mut seen = Vec::new();
+    let mut last: Option<PhaseKind> = None;
+    for s in samples {
+        if last != Some(s.phase) {
+            let label = if seen.contains(&s.phase) {
+                String::new()
+            } else {
+                seen.push(s.phase);
+                s.phase.as_str().to_string()
+            };
+            out.push(Curve {
+                points: Vec::new(),
+                colour: phase_colour(s.phase),
+                label,
+            });
+            last = Some(s.phase);
+        }
+        if let Some(c) = out.last_mut() {
+            c.points.push((s.t, s.a));
+        }
+    }
+    out
+}
+
+fn draw<DB: DrawingBackend>(
+    root: DrawingArea<DB, Shift>,
+    samples: &[Sample],
+    measured: Option<Measured<'_>>,
+    title: &str,
+) -> Result<(), String> {
+    root.fill(&WHITE).map_err(|e| e.to_string())?;
+    let root = root.titled(title, (FONT, 28)).map_err(|e| e.to_string())?;
+    let areas = root.split_evenly((3, 2));
+    let series = |f: fn(&Sample) -> (f64, f64), colour: RGBColor, label: &str| Curve {
+        points: samples.iter().map(f).collect(),
+        colour,
+        label: label.to_string(),
+    };
+    let blue = RGBColor(31, 119, 180);
+    let mut accel = Vec::new();
+    if let Some(m) = measured {
+        accel.push(Curve {
+            points: m.t.iter().copied().zip(m.a.iter().copied()).collect(),
+            colour: RGBColor(160, 160, 160),
+            label: m.label.to_string(),
+        });
+    }
+    accel.push(series(
+        |s| (s.t, s.a),
+        blue,
+        if measured.is_some() { "model" } else { "" },
+    ));
+    panel(&areas[0], "(a) acceleration", "t (s)", "a (m/s²)", &accel)?;
+    panel(
+        &areas[1],
+        "(b) acceleration by phase",
+        "t (s)",
+        "a (m/s²)",
+        &runs_by_phase(samples),
+    )?;
+    panel(
+        &areas[2],
+        "(c) displacement",
+        "t (s)",
+        "u (m)",
+        &[series(|s| (s.t, s.u), blue, "")],
+    )?;
+    panel(
+        &areas[3],
+        "(d) velocity",
+        "t (s)",
+        "v (m/s)",
+        &[series(|s| (s.t, s.v), blue, "")],
+    )?;
+    let red = RGBColor(214, 39, 40);
+    panel(
+        &areas[4],
+        "(e) rubber bearings (HDRB)",
+        "u (m)",
+        "F_S/m (N/kg)",
+        &[series(|s| (s.u, s.f_spring), red, "")],
+    )?;
+    panel(
+        &areas[5],
+        "(f) sliding bearings (LFSB)",
+        "u (m)",
+        "F_F/m (N/kg)",
+        &[series(|s| (s.u, s.f_friction), red, "")],
+    )?;
+    root.present().map_err(|e| e.to_string())
+}
+
+/// The six panels of the paper's Fig. 7.1 for a simulated response sampled
+/// every `dt`, with an optional measured record under panel (a). PNG or SVG
+/// by the extension of `path`.
+pub fn release_test_figure(
+    path: &Path,
+    response: &Response,
+    dt: f64,
+    measured: Option<Measured<'_>>,
+    title: &str,
+) -> Result<(), FigureError> {
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase);
+    if !matches!(ext.as_deref(), Some("png") | Some("svg")) {
+        return Err(FigureError::Format {
+            path: path.to_path_buf(),
+        });
+    }
+    if !font_ready() {
+        return Err(FigureError::Draw {
+            path: path.to_path_buf(),
+            message: "the embedded font could not be loaded".into(),
+        });
+    }
+    let samples = response.sample_grid(dt)?;
+    let size = (1600, 1500);
+    let result = if ext.as_deref() == Some("png") {
+        draw(
+            BitMapBackend::new(path, size).into_drawing_area(),
+            &samples,
+            measured,
+            title,
+        )
+    } else {
+        draw(
+            SVGBackend::new(path, size).into_drawing_area(),
+            &samples,
+            measured,
+            title,
+        )
+    };
+    result.map_err(|message| FigureError::Draw {
+        path: path.to_path_buf(),
+        message,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::{ModelSpec, Params};
+
+    #[test]
+    fn draws_test5_as_png_and_svg() {
+        let r = Response::simulate(&ModelSpec::FULL, &Params::table_8_1(5).unwrap(), 10.0).unwrap();
+        let dir = tempfile::tempdir().unwrap();
+        for name in ["f.png", "f.svg"] {
+            let p = dir.path().join(name);
+            release_test_figure(&p, &r, 0.005, None, "Test 5").unwrap();
+            assert!(std::fs::metadata(&p).unwrap().len() > 20_000, "{name}");
+        }
+        let t: Vec<f64> = (0..10).map(|i| i as f64).collect();
+        let m = Measured {
+            t: &t,
+            a: &t,
+            label: "measured",
+        };
+        release_test_figure(&dir.path().join("m.png"), &r, 0.01, Some(m), "with record").unwrap();
+        assert!(matches!(
+            release_test_figure(&dir.path().join("f.jpg"), &r, 0.005, None, ""),
+            Err(FigureError::Format { .. })
+        ));
+    }
+}
