@@ -36,6 +36,13 @@ pub trait ForwardModel: Send + Sync {
 
     /// Acceleration at `t_i = i dt` for `i < out.len()`, written into `out`.
     fn accel_into(&self, theta: &[f64], dt: f64, out: &mut [f64]) -> Result<(), SimError>;
+
+    /// Whether `theta` lies where the model is identifiable at all; the
+    /// posterior puts zero prior mass elsewhere. Default: everywhere.
+    fn in_support(&self, theta: &[f64]) -> bool {
+        let _ = theta;
+        true
+    }
 }
 
 impl ForwardModel for ModelSpec {
@@ -53,5 +60,21 @@ impl ForwardModel for ModelSpec {
     fn accel_into(&self, theta: &[f64], dt: f64, out: &mut [f64]) -> Result<(), SimError> {
         let p = self.params_from_slice(theta)?;
         System::new(self, &p).accel_into(dt, out, &SimOptions::default())
+    }
+
+    /// A tri-linear spring needs `u3 < u0`: released short of its third
+    /// branch, it is the bi-linear model with `f2` and `u3` free and
+    /// unidentified (a flat ridge of the posterior that traps searches;
+    /// model-notes.md). Fit `bilinear` for such a test.
+    fn in_support(&self, theta: &[f64]) -> bool {
+        if self.spring != SpringKind::Trilinear {
+            return true;
+        }
+        let names = ModelSpec::param_names(self);
+        let at = |p: ParamName| names.iter().position(|&q| q == p).map(|i| theta[i]);
+        match (at(ParamName::U3), at(ParamName::U0)) {
+            (Some(u3), Some(u0)) => u3 < u0,
+            _ => true,
+        }
     }
 }

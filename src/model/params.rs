@@ -174,6 +174,15 @@ impl Params {
         }
     }
 
+    /// Values of the parameters `spec` uses, in its order (the inverse of
+    /// [`crate::model::ModelSpec::params_from_slice`]).
+    pub fn to_theta(&self, spec: &crate::model::ModelSpec) -> Vec<f64> {
+        spec.param_names()
+            .into_iter()
+            .map(|p| self.get(p))
+            .collect()
+    }
+
     /// Value of one parameter.
     pub fn get(&self, p: ParamName) -> f64 {
         match p {

@@ -1,0 +1,309 @@
+//! The maximum a posteriori estimate: bounded CMA-ES with IPOP restarts,
+//! then a Nelder-Mead polish.
+//!
+//! CMA-ES searches the unit box that the priors' supports map onto linearly,
+//! so every parameter has the same initial step (`sigma0 = 0.3` of its
+//! range) whatever its unit. Each run starts from a uniform draw over the
+//! supports: the identification landscape is multimodal (a tri-linear
+//! spring whose `u3` lies beyond the largest amplitude is a flat basin;
+//! model-notes.md), and restarts from new points with doubled populations
+//! (IPOP), interleaved with small runs of random size and step (BIPOP),
+//! escape it. The restart sequence ends when the budget is spent, all
+//! restarts are used, or two runs have reached the same best value (within
+//! `repeat_tol` in log-posterior units): the best basin has then been found
+//! twice from independent starts.
+
+use std::time::Instant;
+
+use rand::{Rng, RngExt};
+use thiserror::Error;
+
+use super::bounds::BoxTransform;
+use super::cmaes::{Cmaes, CmaesError, RunSummary, Start};
+use super::polish::{Polish, PolishError};
+use super::posterior::{Evaluation, Posterior, PosteriorError};
+use crate::model::ForwardModel;
+
+/// Why the MAP search failed.
+#[derive(Debug, Error)]
+pub enum MapError {
+    /// A setting is out of range.
+    #[error("MAP setting `{name}`: {reason}")]
+    Setting {
+        name: &'static str,
+        reason: &'static str,
+    },
+    /// CMA-ES failed.
+    #[error("CMA-ES")]
+    Cmaes(#[from] CmaesError),
+    /// The polish failed.
+    #[error("polish")]
+    Polish(#[from] PolishError),
+    /// The posterior failed (NaN).
+    #[error("posterior")]
+    Posterior(#[from] PosteriorError),
+    /// No point with positive posterior density was found.
+    #[error(
+        "no parameter set with positive posterior density was found in {evaluations} evaluations"
+    )]
+    NothingFeasible { evaluations: usize },
+}
+
+/// Settings of the MAP search.
+#[derive(Debug, Clone)]
+pub struct MapSettings {
+    max_evals: usize,
+    restarts: usize,
+    min_runs: usize,
+    repeat_tol: f64,
+    tol_fun: f64,
+    max_generations: usize,
+    parallel: bool,
+    polish: Option<Polish>,
+}
+
+impl Default for MapSettings {
+    fn default() -> Self {
+        Self {
+            max_evals: 200_000,
+            restarts: 19,
+            min_runs: 3,
+            repeat_tol: 0.05,
+            tol_fun: 1e-6,
+            max_generations: 1000,
+            parallel: true,
+            polish: Some(Polish::default()),
+        }
+    }
+}
+
+impl MapSettings {
+    /// Total CMA-ES evaluation budget (default 150,000).
+    pub fn with_max_evals(mut self, n: usize) -> Result<Self, MapError> {
+        if n < 100 {
+            return Err(MapError::Setting {
+                name: "max_evals",
+                reason: "must be at least 100",
+            });
+        }
+        self.max_evals = n;
+        Ok(self)
+    }
+
+    /// Most IPOP restarts after the first run (default 9).
+    pub fn with_restarts(mut self, n: usize) -> Result<Self, MapError> {
+        self.restarts = n;
+        Ok(self)
+    }
+
+    /// Fewest large (IPOP) runs before the repeat rule may stop the
+    /// sequence (default 3).
+    pub fn with_min_runs(mut self, n: usize) -> Result<Self, MapError> {
+        if n == 0 {
+            return Err(MapError::Setting {
+                name: "min_runs",
+                reason: "must be at least 1",
+            });
+        }
+        self.min_runs = n;
+        Ok(self)
+    }
+
+    /// Two runs whose best log-posteriors differ by less than this found the
+    /// same basin (default 0.05).
+    pub fn with_repeat_tol(mut self, tol: f64) -> Result<Self, MapError> {
+        if tol.is_nan() || tol < 0.0 {
+            return Err(MapError::Setting {
+                name: "repeat_tol",
+                reason: "must be >= 0",
+            });
+        }
+        self.repeat_tol = tol;
+        Ok(self)
+    }
+
+    /// Evaluate populations in parallel (default true; results do not
+    /// depend on it).
+    pub fn with_parallel(mut self, parallel: bool) -> Result<Self, MapError> {
+        self.parallel = parallel;
+        Ok(self)
+    }
+
+    /// The polish to run after CMA-ES, or none.
+    pub fn with_polish(mut self, polish: Option<Polish>) -> Result<Self, MapError> {
+        self.polish = polish;
+        Ok(self)
+    }
+}
+
+/// The polish step in numbers.
+#[derive(Debug, Clone)]
+pub struct PolishReport {
+    /// Minus log-posterior before and after.
+    pub objective_before: f64,
+    /// Minus log-posterior after.
+    pub objective_after: f64,
+    /// `e2` before.
+    pub e2_before: f64,
+    /// `e2` after.
+    pub e2_after: f64,
+    /// Simplex iterations.
+    pub iterations: u64,
+    /// Why it stopped.
+    pub termination: String,
+}
+
+/// The MAP estimate and how it was found.
+#[derive(Debug, Clone)]
+pub struct MapEstimate {
+    /// Parameter names.
+    pub names: Vec<String>,
+    /// The MAP point.
+    pub theta: Vec<f64>,
+    /// The posterior there.
+    pub eval: Evaluation,
+    /// CMA-ES evaluations.
+    pub cmaes_evaluations: usize,
+    /// The CMA-ES runs (first, then restarts).
+    pub runs: Vec<RunSummary>,
+    /// The polish, if run.
+    pub polish: Option<PolishReport>,
+    /// Wall time (s).
+    pub wall_time: f64,
+}
+
+/// Finds the MAP of `posterior`, drawing every random number from `rng`.
+pub fn find_map<M, R>(
+    posterior: &Posterior<M>,
+    settings: &MapSettings,
+    rng: &mut R,
+) -> Result<MapEstimate, MapError>
+where
+    M: ForwardModel + Clone,
+    R: Rng + ?Sized,
+{
+    let clock = Instant::now();
+    let d = posterior.dim();
+    let (lo, hi) = posterior.priors().box_bounds();
+    // Scale parameters whose support spans two decades or more are searched on
+    // a log scale: the MAP does not depend on the search coordinates, but
+    // CMA-ES's uniform starts then spread evenly over orders of magnitude
+    // instead of crowding the top decade (where, e.g., a `u3` beyond the
+    // largest amplitude is a flat basin).
+    let log_scale: Vec<bool> = (0..d)
+        .map(|i| lo[i] > 0.0 && hi[i] >= 100.0 * lo[i])
+        .collect();
+    let to_theta = |u: &[f64]| -> Vec<f64> {
+        (0..d)
+            .map(|i| {
+                if log_scale[i] {
+                    (lo[i] * (hi[i] / lo[i]).powf(u[i])).clamp(lo[i], hi[i])
+                } else {
+                    lo[i] + u[i] * (hi[i] - lo[i])
+                }
+            })
+            .collect()
+    };
+    let objective = |u: &[f64]| match posterior.log_posterior(&to_theta(u)) {
+        Ok(lp) => -lp,
+        Err(_) => f64::NAN,
+    };
+    let unit = BoxTransform::new(vec![0.0; d], vec![1.0; d]).expect("the unit box is valid");
+    let start = Start::Uniform {
+        lower: vec![0.0; d],
+        upper: vec![1.0; d],
+    };
+    let mut best_u: Vec<f64> = Vec::new();
+    let mut best_f = f64::INFINITY;
+    let mut runs: Vec<RunSummary> = Vec::new();
+    let mut evaluations = 0;
+    // Runs that reached the best value so far (within `repeat_tol`).
+    let mut hits = 0;
+    let base = 4 + (3.0 * (d as f64).ln()).floor() as usize;
+    let (mut large_runs, mut large_evals, mut small_evals) = (0usize, 0usize, 0usize);
+    for _ in 0..=settings.restarts {
+        if evaluations >= settings.max_evals {
+            break;
+        }
+        // BIPOP (Hansen 2009): large runs double the population (IPOP);
+        // between them, while they have used less than the large runs,
+        // small runs with a random population between the default and the
+        // last large one and a step size down to 1 % of sigma0 probe for
+        // narrow basins. One run at a time, so the repeat rule can stop the
+        // sequence between runs.
+        let small = large_runs > 0 && small_evals < large_evals;
+        let (popsize, sigma0) = if small {
+            let u: f64 = rng.random();
+            let largest = (base << (large_runs - 1).min(20)) as f64;
+            let pop = (base as f64 * (largest / base as f64).powf(u * u)).floor() as usize;
+            (pop.max(base), 0.3 * 10f64.powf(-2.0 * rng.random::<f64>()))
+        } else {
+            (base << large_runs.min(20), 0.3)
+        };
+        let cmaes = Cmaes::new(sigma0)?
+            .with_bounds(unit.clone())?
+            .with_popsize(popsize)?
+            .with_max_evals(settings.max_evals - evaluations)?
+            .with_tol_fun(settings.tol_fun)?
+            .with_max_generations(settings.max_generations)?
+            .with_parallel(settings.parallel)?;
+        let result = cmaes
+            .minimize(objective, &start, rng)
+            .map_err(|e| match e {
+                CmaesError::NaN { x } => MapError::Posterior(PosteriorError::NaN {
+                    theta: to_theta(&x),
+                }),
+                other => MapError::Cmaes(other),
+            })?;
+        evaluations += result.evaluations;
+        if small {
+            small_evals += result.evaluations;
+        } else {
+            large_evals += result.evaluations;
+            large_runs += 1;
+        }
+        runs.push(result.runs[0].clone());
+        if result.f < best_f - settings.repeat_tol {
+            hits = 1;
+        } else if (result.f - best_f).abs() <= settings.repeat_tol {
+            hits += 1;
+        }
+        if result.f < best_f {
+            best_f = result.f;
+            best_u = result.x;
+        }
+        if hits >= 2 && large_runs >= settings.min_runs {
+            break;
+        }
+    }
+    if !best_f.is_finite() {
+        return Err(MapError::NothingFeasible { evaluations });
+    }
+    let mut theta = to_theta(&best_u);
+    let before = posterior.evaluate(&theta)?;
+    let mut eval = before;
+    let mut polish_report = None;
+    if let Some(polish) = &settings.polish {
+        let scale: Vec<f64> = (0..d).map(|i| hi[i] - lo[i]).collect();
+        let out = polish.run(posterior.clone(), &theta, &scale)?;
+        theta = out.x;
+        eval = posterior.evaluate(&theta)?;
+        polish_report = Some(PolishReport {
+            objective_before: out.cost_before,
+            objective_after: out.cost_after,
+            e2_before: before.e2,
+            e2_after: eval.e2,
+            iterations: out.iterations,
+            termination: out.termination,
+        });
+    }
+    Ok(MapEstimate {
+        names: posterior.names().to_vec(),
+        theta,
+        eval,
+        cmaes_evaluations: evaluations,
+        runs,
+        polish: polish_report,
+        wall_time: clock.elapsed().as_secs_f64(),
+    })
+}

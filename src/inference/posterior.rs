@@ -1,0 +1,260 @@
+//! The log-posterior of model parameters given an aligned record.
+//!
+//! `ln p(theta | record) = ln prior(theta) + ln L(record | theta)` with the
+//! marginal likelihood of [`Noise`]. The model enters only through
+//! [`ForwardModel`], so any model (a new physical effect, a user's own
+//! component) is identified the same way.
+//!
+//! `-inf` means zero prior mass: outside a prior's support, or parameters
+//! the model refuses (structural constraints such as `k0 > k1`). A NaN is a
+//! bug and is returned as an error, never as a density.
+//!
+//! Evaluation allocates nothing after the first call on each thread: the
+//! model writes into a thread-local buffer.
+//!
+//! ```
+//! use hbis::data::synthesize;
+//! use hbis::inference::{Noise, Posterior};
+//! use hbis::model::{ModelSpec, Params};
+//! use rand::{rngs::StdRng, SeedableRng};
+//!
+//! let spec: ModelSpec = "trilinear+lcfm+viscous".parse()?;
+//! let truth = Params::table_8_1(5).unwrap().to_theta(&spec);
+//! let mut rng = StdRng::seed_from_u64(1);
+//! let syn = synthesize(&spec, &truth, 0.005, 2001, 0.015, &mut rng)?;
+//! let data = syn.record.aligned(None)?;
+//! let post = Posterior::with_default_priors(spec, data, Noise::White)?;
+//! let ev = post.evaluate(&truth)?;
+//! assert!((ev.e2 / syn.noise_floor - 1.0).abs() < 0.1);
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+
+use std::cell::RefCell;
+
+use argmin::core::CostFunction;
+use nalgebra::DVector;
+use thiserror::Error;
+
+use super::likelihood::Noise;
+use super::priors::{PriorError, Priors};
+use crate::data::Aligned;
+use crate::model::{ForwardModel, SimError};
+
+/// Why the posterior could not be built or evaluated.
+#[derive(Debug, Error)]
+pub enum PosteriorError {
+    /// The priors do not name the model's parameters in order.
+    #[error("priors are for ({priors}) but the model needs ({model})")]
+    Names { priors: String, model: String },
+    /// A parameter vector has the wrong length.
+    #[error("expected {expected} parameters, got {found}")]
+    Dim { expected: usize, found: usize },
+    /// The default priors could not be built.
+    #[error(transparent)]
+    Prior(#[from] PriorError),
+    /// The density came out NaN: a bug, reported with its input.
+    #[error("log-density is NaN at theta = {theta:?}")]
+    NaN { theta: Vec<f64> },
+}
+
+/// One evaluation of the posterior, with its parts.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Evaluation {
+    /// Log-prior (`-inf` outside the support).
+    pub log_prior: f64,
+    /// Marginal log-likelihood (`-inf` if the model refused the parameters).
+    pub log_likelihood: f64,
+    /// Their sum.
+    pub log_posterior: f64,
+    /// Sum of squared residuals (m^2/s^4).
+    pub sse: f64,
+    /// `sse / sum a_meas^2`.
+    pub e2: f64,
+}
+
+impl Evaluation {
+    fn outside(log_prior: f64) -> Self {
+        Self {
+            log_prior,
+            log_likelihood: f64::NEG_INFINITY,
+            log_posterior: f64::NEG_INFINITY,
+            sse: f64::INFINITY,
+            e2: f64::INFINITY,
+        }
+    }
+}
+
+thread_local! {
+    static BUFFER: RefCell<Vec<f64>> = const { RefCell::new(Vec::new()) };
+}
+
+/// Prior times likelihood for one model and one record.
+#[derive(Debug, Clone)]
+pub struct Posterior<M> {
+    model: M,
+    data: Aligned,
+    priors: Priors,
+    noise: Noise,
+    names: Vec<String>,
+    n_model: usize,
+    energy: f64,
+}
+
+impl<M: ForwardModel> Posterior<M> {
+    /// A posterior with the given priors, which must name the model's
+    /// parameters (then `rho` for AR(1) noise) in order.
+    pub fn new(
+        model: M,
+        data: Aligned,
+        priors: Priors,
+        noise: Noise,
+    ) -> Result<Self, PosteriorError> {
+        let names = Self::names_for(&model, noise);
+        if priors.names() != names.as_slice() {
+            return Err(PosteriorError::Names {
+                priors: priors.names().join(", "),
+                model: names.join(", "),
+            });
+        }
+        let n_model = model.param_names().len();
+        let energy = data.energy();
+        Ok(Self {
+            model,
+            data,
+            priors,
+            noise,
+            names,
+            n_model,
+            energy,
+        })
+    }
+
+    /// A posterior with the default uniform priors.
+    pub fn with_default_priors(
+        model: M,
+        data: Aligned,
+        noise: Noise,
+    ) -> Result<Self, PosteriorError> {
+        let priors = Priors::defaults(&Self::names_for(&model, noise))?;
+        Self::new(model, data, priors, noise)
+    }
+
+    /// The parameter names a model and noise model need, in order.
+    pub fn names_for(model: &M, noise: Noise) -> Vec<String> {
+        let mut names = model.param_names();
+        names.extend(noise.extra_names().iter().map(|s| s.to_string()));
+        names
+    }
+
+    /// Parameter names in order.
+    pub fn names(&self) -> &[String] {
+        &self.names
+    }
+
+    /// Number of parameters.
+    pub fn dim(&self) -> usize {
+        self.names.len()
+    }
+
+    /// The model.
+    pub fn model(&self) -> &M {
+        &self.model
+    }
+
+    /// The record.
+    pub fn data(&self) -> &Aligned {
+        &self.data
+    }
+
+    /// The priors.
+    pub fn priors(&self) -> &Priors {
+        &self.priors
+    }
+
+    /// The noise model.
+    pub fn noise(&self) -> Noise {
+        self.noise
+    }
+
+    /// The model's acceleration on the record's grid.
+    pub fn model_accel(&self, theta: &[f64]) -> Result<Vec<f64>, SimError> {
+        let mut out = vec![0.0; self.data.a.len()];
+        self.model
+            .accel_into(&theta[..self.n_model], self.data.dt, &mut out)?;
+        Ok(out)
+    }
+
+    /// Evaluates prior, likelihood and `e2` at `theta`.
+    pub fn evaluate(&self, theta: &[f64]) -> Result<Evaluation, PosteriorError> {
+        if theta.len() != self.dim() {
+            return Err(PosteriorError::Dim {
+                expected: self.dim(),
+                found: theta.len(),
+            });
+        }
+        if theta.iter().any(|v| v.is_nan()) {
+            return Err(PosteriorError::NaN {
+                theta: theta.to_vec(),
+            });
+        }
+        let mut log_prior = self.priors.ln_pdf(theta);
+        if !self.model.in_support(&theta[..self.n_model]) {
+            log_prior = f64::NEG_INFINITY;
+        }
+        if log_prior == f64::NEG_INFINITY {
+            return Ok(Evaluation::outside(log_prior));
+        }
+        let n = self.data.a.len();
+        let rho = (self.noise == Noise::Ar1).then(|| theta[self.n_model]);
+        let result = BUFFER.with(|cell| {
+            let mut buf = cell.borrow_mut();
+            buf.resize(n, 0.0);
+            // A model that refuses the parameters (or cannot finish them) puts
+            // no mass there.
+            if self
+                .model
+                .accel_into(&theta[..self.n_model], self.data.dt, &mut buf)
+                .is_err()
+            {
+                return None;
+            }
+            for (m, a) in buf.iter_mut().zip(&self.data.a) {
+                *m = a - *m;
+            }
+            let sse: f64 = buf.iter().map(|r| r * r).sum();
+            let (ln_l, _) = self.noise.log_likelihood(&buf, rho);
+            Some((sse, ln_l))
+        });
+        let Some((sse, log_likelihood)) = result else {
+            return Ok(Evaluation::outside(log_prior));
+        };
+        let ev = Evaluation {
+            log_prior,
+            log_likelihood,
+            log_posterior: log_prior + log_likelihood,
+            sse,
+            e2: sse / self.energy,
+        };
+        if ev.log_posterior.is_nan() || ev.e2.is_nan() {
+            return Err(PosteriorError::NaN {
+                theta: theta.to_vec(),
+            });
+        }
+        Ok(ev)
+    }
+
+    /// The log-posterior alone.
+    pub fn log_posterior(&self, theta: &[f64]) -> Result<f64, PosteriorError> {
+        Ok(self.evaluate(theta)?.log_posterior)
+    }
+}
+
+/// argmin sees the negative log-posterior as the cost to minimise.
+impl<M: ForwardModel> CostFunction for Posterior<M> {
+    type Param = DVector<f64>;
+    type Output = f64;
+
+    fn cost(&self, theta: &Self::Param) -> Result<f64, argmin::core::Error> {
+        Ok(-self.log_posterior(theta.as_slice())?)
+    }
+}
