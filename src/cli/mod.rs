@@ -3,6 +3,7 @@
 
 mod convert;
 mod demo;
+mod fit;
 mod inputs;
 mod simulate;
 
@@ -25,6 +26,8 @@ enum Command {
     Simulate(simulate::Args),
     /// Convert identification parameters to physical quantities (Table 8.2).
     Convert(convert::Args),
+    /// Find the MAP of a model for a measured acceleration record.
+    Fit(fit::Args),
     /// Run the built-in demonstration on the Solarino Test 5 parameters.
     Demo(demo::Args),
 }
@@ -36,6 +39,7 @@ pub fn main() -> ExitCode {
     let result = match cli.command {
         Command::Simulate(a) => simulate::run(a),
         Command::Convert(a) => convert::run(a),
+        Command::Fit(a) => fit::run(a),
         Command::Demo(a) => demo::run(a),
     };
     match result {

@@ -69,7 +69,7 @@ impl Default for MapSettings {
             restarts: 19,
             min_runs: 3,
             repeat_tol: 0.05,
-            tol_fun: 1e-6,
+            tol_fun: 1e-3,
             max_generations: 1000,
             parallel: true,
             polish: Some(Polish::default()),
@@ -149,6 +149,8 @@ pub struct PolishReport {
     pub e2_after: f64,
     /// Simplex iterations.
     pub iterations: u64,
+    /// Cost evaluations.
+    pub evaluations: u64,
     /// Why it stopped.
     pub termination: String,
 }
@@ -170,6 +172,13 @@ pub struct MapEstimate {
     pub polish: Option<PolishReport>,
     /// Wall time (s).
     pub wall_time: f64,
+}
+
+impl MapEstimate {
+    /// All posterior evaluations: CMA-ES plus polish.
+    pub fn evaluations(&self) -> u64 {
+        self.cmaes_evaluations as u64 + self.polish.as_ref().map_or(0, |p| p.evaluations)
+    }
 }
 
 /// Finds the MAP of `posterior`, drawing every random number from `rng`.
@@ -294,6 +303,7 @@ where
             e2_before: before.e2,
             e2_after: eval.e2,
             iterations: out.iterations,
+            evaluations: out.evaluations,
             termination: out.termination,
         });
     }

@@ -44,6 +44,8 @@ pub struct PolishOutcome {
     pub cost_after: f64,
     /// Simplex iterations.
     pub iterations: u64,
+    /// Cost evaluations by the simplex (besides the few to set it up).
+    pub evaluations: u64,
     /// Why it stopped.
     pub termination: String,
 }
@@ -147,7 +149,7 @@ impl Polish {
             .with_sd_tolerance(self.sd_tolerance)
             .map_err(|e| PolishError::Solver(e.to_string()))?;
         let res = Executor::new(problem, solver)
-            .configure(|s| s.max_iters(self.max_iters))
+            .configure(|s| s.max_iters(self.max_iters).counting(true))
             .run()
             .map_err(|e| PolishError::Solver(e.to_string()))?;
         let state = res.state();
@@ -172,6 +174,11 @@ impl Polish {
             cost_before,
             cost_after,
             iterations: state.get_iter(),
+            evaluations: state
+                .get_func_counts()
+                .get("cost_count")
+                .copied()
+                .unwrap_or(0),
             termination,
         })
     }

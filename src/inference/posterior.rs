@@ -35,7 +35,7 @@ use argmin::core::CostFunction;
 use nalgebra::DVector;
 use thiserror::Error;
 
-use super::likelihood::Noise;
+use super::likelihood::{ar1_sum, marginal, sum_of_squares, Noise};
 use super::priors::{PriorError, Priors};
 use crate::data::Aligned;
 use crate::model::{ForwardModel, SimError};
@@ -98,6 +98,8 @@ pub struct Posterior<M> {
     names: Vec<String>,
     n_model: usize,
     energy: f64,
+    /// `marginal(n, 1)`: the likelihood's constant part.
+    ln_const: f64,
 }
 
 impl<M: ForwardModel> Posterior<M> {
@@ -118,6 +120,7 @@ impl<M: ForwardModel> Posterior<M> {
         }
         let n_model = model.param_names().len();
         let energy = data.energy();
+        let ln_const = marginal(data.a.len(), 1.0);
         Ok(Self {
             model,
             data,
@@ -126,6 +129,7 @@ impl<M: ForwardModel> Posterior<M> {
             names,
             n_model,
             energy,
+            ln_const,
         })
     }
 
@@ -221,8 +225,14 @@ impl<M: ForwardModel> Posterior<M> {
             for (m, a) in buf.iter_mut().zip(&self.data.a) {
                 *m = a - *m;
             }
-            let sse: f64 = buf.iter().map(|r| r * r).sum();
-            let (ln_l, _) = self.noise.log_likelihood(&buf, rho);
+            let sse = sum_of_squares(&buf);
+            let ln_l = match rho {
+                Some(rho) => {
+                    let (s, jac) = ar1_sum(&buf, rho);
+                    self.ln_const - 0.5 * n as f64 * s.ln() + jac
+                }
+                None => self.ln_const - 0.5 * n as f64 * sse.ln(),
+            };
             Some((sse, ln_l))
         });
         let Some((sse, log_likelihood)) = result else {

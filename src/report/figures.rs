@@ -285,6 +285,113 @@ pub fn release_test_figure(
     })
 }
 
+/// Measured against model acceleration (top, with an optional band such as
+/// a 90 % posterior-predictive interval) and the residual (bottom). PNG or
+/// SVG by the extension of `path`.
+pub fn fit_figure(
+    path: &Path,
+    t: &[f64],
+    measured: &[f64],
+    model: &[f64],
+    band: Option<(&[f64], &[f64])>,
+    title: &str,
+) -> Result<(), FigureError> {
+    let ext = checked_extension(path)?;
+    let residual: Vec<(f64, f64)> = t
+        .iter()
+        .zip(measured.iter().zip(model))
+        .map(|(&t, (m, a))| (t, m - a))
+        .collect();
+    let mut top = vec![
+        Curve {
+            points: t.iter().copied().zip(measured.iter().copied()).collect(),
+            colour: RGBColor(120, 120, 120),
+            label: "measured".into(),
+        },
+        Curve {
+            points: t.iter().copied().zip(model.iter().copied()).collect(),
+            colour: RGBColor(214, 39, 40),
+            label: "model (MAP)".into(),
+        },
+    ];
+    if let Some((lo, hi)) = band {
+        for (edge, label) in [(lo, "90 % predictive band"), (hi, "")] {
+            top.push(Curve {
+                points: t.iter().copied().zip(edge.iter().copied()).collect(),
+                colour: RGBColor(31, 119, 180),
+                label: label.into(),
+            });
+        }
+    }
+    let bottom = vec![Curve {
+        points: residual,
+        colour: RGBColor(44, 44, 160),
+        label: String::new(),
+    }];
+    let size = (1600, 1000);
+    let result = if ext == "png" {
+        draw_fit(
+            BitMapBackend::new(path, size).into_drawing_area(),
+            title,
+            &top,
+            &bottom,
+        )
+    } else {
+        draw_fit(
+            SVGBackend::new(path, size).into_drawing_area(),
+            title,
+            &top,
+            &bottom,
+        )
+    };
+    result.map_err(|message| FigureError::Draw {
+        path: path.to_path_buf(),
+        message,
+    })
+}
+
+fn draw_fit<DB: DrawingBackend>(
+    root: DrawingArea<DB, Shift>,
+    title: &str,
+    top: &[Curve],
+    bottom: &[Curve],
+) -> Result<(), String> {
+    root.fill(&WHITE).map_err(|e| e.to_string())?;
+    let root = root.titled(title, (FONT, 28)).map_err(|e| e.to_string())?;
+    let (a, b) = root.split_vertically(root.dim_in_pixel().1 * 3 / 5);
+    panel(&a, "(a) acceleration", "t (s)", "a (m/s²)", top)?;
+    panel(
+        &b,
+        "(b) residual, measured - model",
+        "t (s)",
+        "r (m/s²)",
+        bottom,
+    )?;
+    root.present().map_err(|e| e.to_string())
+}
+
+/// The lowercase extension (`png` or `svg`), with the font registered.
+fn checked_extension(path: &Path) -> Result<String, FigureError> {
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase);
+    match ext {
+        Some(e) if e == "png" || e == "svg" => {
+            if !font_ready() {
+                return Err(FigureError::Draw {
+                    path: path.to_path_buf(),
+                    message: "the embedded font could not be loaded".into(),
+                });
+            }
+            Ok(e)
+        }
+        _ => Err(FigureError::Format {
+            path: path.to_path_buf(),
+        }),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -3,3 +3,4 @@
 pub mod csv;
 #[cfg(feature = "figures")]
 pub mod figures;
+pub mod json;

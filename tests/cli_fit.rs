@@ -1,0 +1,167 @@
+//! `hbis fit` through the real binary: the documented keys, determinism
+//! across thread counts, and errors that name the row or field.
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+use hbis::data::synthesize;
+use hbis::model::{ModelSpec, Params};
+use rand::{rngs::StdRng, SeedableRng};
+
+fn hbis(dir: &Path, args: &[&str], threads: &str) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_hbis"))
+        .current_dir(dir)
+        .env("RAYON_NUM_THREADS", threads)
+        .args(args)
+        .output()
+        .expect("runs")
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// A Test 5 record with 0.4 s of held (noise-only) samples before release.
+fn record(dir: &Path) {
+    let spec = ModelSpec::FULL;
+    let truth = Params::table_8_1(5).unwrap().to_theta(&spec);
+    let mut rng = StdRng::seed_from_u64(9);
+    let syn = synthesize(&spec, &truth, 0.005, 2001, 0.015, &mut rng).unwrap();
+    let mut text = String::from("t,a\n");
+    for i in 0..80 {
+        text.push_str(&format!(
+            "{},{}\n",
+            i as f64 * 0.005,
+            0.002 * ((i % 7) as f64 - 3.0)
+        ));
+    }
+    for (t, a) in syn.record.t().iter().zip(syn.record.a()) {
+        text.push_str(&format!("{},{a}\n", 0.4 + t));
+    }
+    std::fs::write(dir.join("rec.csv"), text).unwrap();
+}
+
+fn without_wall_time(path: &Path) -> serde_json::Value {
+    let mut v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap();
+    v.as_object_mut()
+        .unwrap()
+        .remove("wall_time_s")
+        .expect("wall_time_s is present");
+    v
+}
+
+#[test]
+fn fit_json_has_the_documented_keys_and_one_seed_gives_one_result() {
+    let d = tempfile::tempdir().unwrap();
+    record(d.path());
+    let args = |out: &'static str| {
+        [
+            "fit",
+            "--data",
+            "rec.csv",
+            "--model",
+            "trilinear+lcfm+viscous",
+            "--seed",
+            "7",
+            "--out",
+            out,
+            "--json",
+        ]
+    };
+    let one = hbis(d.path(), &args("one"), "1");
+    assert!(one.status.success(), "{}", stderr(&one));
+    let two = hbis(d.path(), &args("two"), "2");
+    assert!(two.status.success(), "{}", stderr(&two));
+    let a = without_wall_time(&d.path().join("one/fit.json"));
+    let b = without_wall_time(&d.path().join("two/fit.json"));
+    assert_eq!(a, b, "same seed, 1 vs 2 threads");
+    // Bit-identical text, too, apart from the wall time line.
+    let strip = |p: &str| -> String {
+        std::fs::read_to_string(d.path().join(p))
+            .unwrap()
+            .lines()
+            .filter(|l| !l.contains("wall_time_s"))
+            .collect::<Vec<_>>()
+            .join("\n")
+    };
+    assert_eq!(strip("one/fit.json"), strip("two/fit.json"));
+    for key in [
+        "model",
+        "seed",
+        "e2",
+        "map",
+        "log_posterior",
+        "evaluations",
+        "wall_time_s",
+        "polish",
+        "data",
+    ] {
+        let v: serde_json::Value = serde_json::from_slice(&one.stdout).unwrap();
+        assert!(v.get(key).is_some(), "--json output lacks `{key}`");
+    }
+    assert_eq!(a["seed"], 7);
+    assert_eq!(a["model"], "trilinear+lcfm+viscous");
+    assert_eq!(a["data"]["t0_source"], "detected");
+    assert!((a["data"]["t0"].as_f64().unwrap() - 0.4).abs() < 1e-9);
+    assert!(a["map"]["f0"].as_f64().unwrap() > 0.5 && a["map"]["f0"].as_f64().unwrap() < 0.58);
+    assert!(a["e2"].as_f64().unwrap() < 0.01);
+    assert!(d.path().join("one/fit.csv").exists());
+    #[cfg(feature = "figures")]
+    assert!(d.path().join("one/fit.png").exists());
+    assert!(stderr(&one).contains("release at t0 = 0.4 s (detected)"));
+}
+
+#[test]
+fn bad_records_and_priors_exit_2_naming_row_or_field() {
+    let d = tempfile::tempdir().unwrap();
+    record(d.path());
+    let cases: [(&str, &str, &str, &str); 5] = [
+        ("bad.csv", "t,a\n0,1\n0.005,x\n", "", "row 3, column `a`"),
+        (
+            "bad.csv",
+            "t,a\n0,1\n0.005,2\n0.005,3\n",
+            "",
+            "row 4: time 0.005 s does not increase",
+        ),
+        (
+            "bad.csv",
+            "t,a\n0,1\n0.005,inf\n",
+            "",
+            "row 3, column `a`: value inf is not finite",
+        ),
+        (
+            "rec.csv",
+            "",
+            r#"{"f0": {"dist": "normal", "mean": 0.5}}"#,
+            "prior for `f0`",
+        ),
+        (
+            "rec.csv",
+            "",
+            r#"{"k9": {"dist": "uniform", "lower": 0, "upper": 1}}"#,
+            "prior for `k9`",
+        ),
+    ];
+    for (data, text, prior, expected) in cases {
+        if !text.is_empty() {
+            std::fs::write(d.path().join(data), text).unwrap();
+        }
+        let mut args = vec!["fit", "--data", data, "--out", "o"];
+        if !prior.is_empty() {
+            std::fs::write(d.path().join("prior.json"), prior).unwrap();
+            args.extend(["--prior", "prior.json"]);
+        }
+        let o = hbis(d.path(), &args, "1");
+        assert_eq!(o.status.code(), Some(2), "{expected}: {}", stderr(&o));
+        assert!(
+            stderr(&o).contains(expected),
+            "wanted `{expected}` in: {}",
+            stderr(&o)
+        );
+        assert_eq!(stderr(&o).lines().count(), 1, "one line: {}", stderr(&o));
+    }
+    let o = hbis(d.path(), &["fit", "--data", "missing.csv"], "1");
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("missing.csv"));
+}
