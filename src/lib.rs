@@ -32,3 +32,4 @@ pub mod inference;
 pub mod model;
 pub mod numeric;
 pub mod report;
+pub mod study;

@@ -48,7 +48,23 @@ fn without_wall_time(path: &Path) -> serde_json::Value {
         .unwrap()
         .remove("wall_time_s")
         .expect("wall_time_s is present");
+    if let Some(s) = v.get_mut("sampling") {
+        s.as_object_mut()
+            .unwrap()
+            .remove("wall_time_s")
+            .expect("sampling.wall_time_s is present");
+    }
     v
+}
+
+/// File text without the lines that carry wall times.
+fn strip_times(path: &Path) -> String {
+    std::fs::read_to_string(path)
+        .unwrap()
+        .lines()
+        .filter(|l| !l.contains("wall_time_s") && !l.contains("seconds"))
+        .collect::<Vec<_>>()
+        .join("\n")
 }
 
 #[test]
@@ -67,6 +83,14 @@ fn fit_json_has_the_documented_keys_and_one_seed_gives_one_result() {
             "--out",
             out,
             "--json",
+            "--max-steps",
+            "300",
+            "--walkers",
+            "20",
+            "--released-force",
+            "1180",
+            "--static-friction",
+            "100",
         ]
     };
     let one = hbis(d.path(), &args("one"), "1");
@@ -77,15 +101,12 @@ fn fit_json_has_the_documented_keys_and_one_seed_gives_one_result() {
     let b = without_wall_time(&d.path().join("two/fit.json"));
     assert_eq!(a, b, "same seed, 1 vs 2 threads");
     // Bit-identical text, too, apart from the wall time line.
-    let strip = |p: &str| -> String {
-        std::fs::read_to_string(d.path().join(p))
-            .unwrap()
-            .lines()
-            .filter(|l| !l.contains("wall_time_s"))
-            .collect::<Vec<_>>()
-            .join("\n")
-    };
+    let strip = |p: &str| strip_times(&d.path().join(p));
     assert_eq!(strip("one/fit.json"), strip("two/fit.json"));
+    for e in 1..=4 {
+        let name = format!("chains/chain-{e}.csv");
+        assert_eq!(strip(&format!("one/{name}")), strip(&format!("two/{name}")));
+    }
     for key in [
         "model",
         "seed",
@@ -108,7 +129,25 @@ fn fit_json_has_the_documented_keys_and_one_seed_gives_one_result() {
     assert!(a["e2"].as_f64().unwrap() < 0.01);
     assert!(d.path().join("one/fit.csv").exists());
     #[cfg(feature = "figures")]
-    assert!(d.path().join("one/fit.png").exists());
+    for fig in ["fit.png", "corner.png", "trace.png"] {
+        assert!(d.path().join("one").join(fig).exists(), "{fig}");
+    }
+    for k in ["mean", "sd", "q05", "q50", "q95"] {
+        assert!(a["posterior"]["f0"][k].is_f64(), "posterior.f0.{k}");
+    }
+    assert_eq!(a["ranking"].as_array().unwrap().len(), 9);
+    assert_eq!(a["sampling"]["ensembles"], 4);
+    assert_eq!(a["sampling"]["steps"], 300);
+    // The chains are CmdStan CSV with lp__ first and one row per kept draw.
+    let chain = std::fs::read_to_string(d.path().join("one/chains/chain-1.csv")).unwrap();
+    let header = chain.lines().find(|l| !l.starts_with('#')).unwrap();
+    assert!(
+        header.starts_with("lp__,accept_stat__,u0,uy,uF0,rF0,zeta0,f0,f1,f2,u3"),
+        "{header}"
+    );
+    let rows = chain.lines().filter(|l| !l.starts_with('#')).count() - 1;
+    let burn = a["sampling"]["burn_in"].as_u64().unwrap() as usize;
+    assert_eq!(rows, (300 - burn) * 20);
     assert!(stderr(&one).contains("release at t0 = 0.4 s (detected)"));
 }
 
@@ -164,4 +203,92 @@ fn bad_records_and_priors_exit_2_naming_row_or_field() {
     let o = hbis(d.path(), &["fit", "--data", "missing.csv"], "1");
     assert_eq!(o.status.code(), Some(2));
     assert!(stderr(&o).contains("missing.csv"));
+}
+
+/// A run killed with SIGKILL at random moments and resumed each time ends
+/// with exactly the result of an uninterrupted run with the same seed.
+#[cfg(unix)]
+#[test]
+fn killed_and_resumed_runs_end_as_an_uninterrupted_run() {
+    use rand::RngExt;
+    use std::time::{Duration, Instant};
+
+    let d = tempfile::tempdir().unwrap();
+    record(d.path());
+    // A budget-bound run (the autocorrelation target is out of reach) of
+    // 4,000 steps in 40 chunks.
+    let args = |out: &'static str| {
+        [
+            "fit",
+            "--data",
+            "rec.csv",
+            "--model",
+            "bilinear+coulomb+viscous",
+            "--seed",
+            "11",
+            "--out",
+            out,
+            "--walkers",
+            "16",
+            "--max-steps",
+            "4000",
+            "--tau-multiple",
+            "1000",
+        ]
+    };
+    let whole = hbis(d.path(), &args("whole"), "2");
+    assert!(whole.status.success(), "{}", stderr(&whole));
+    let state = d.path().join("resumed/checkpoint/state.json");
+    let steps_saved = || -> u64 {
+        std::fs::read_to_string(&state).map_or(0, |text| {
+            let v: serde_json::Value =
+                serde_json::from_str(&text).expect("the state file is never torn");
+            v["steps"].as_u64().unwrap()
+        })
+    };
+    let mut rng = StdRng::seed_from_u64(2026);
+    let mut saved = vec![0u64];
+    for _ in 0..5 {
+        let mut child = Command::new(env!("CARGO_BIN_EXE_hbis"))
+            .current_dir(d.path())
+            .env("RAYON_NUM_THREADS", "2")
+            .args(args("resumed"))
+            .stdout(std::process::Stdio::null())
+            .stderr(std::process::Stdio::null())
+            .spawn()
+            .unwrap();
+        // Let the run get past its MAP search and save a new chunk, then
+        // kill it at a random moment within the next chunks.
+        let start = Instant::now();
+        let before = *saved.last().unwrap();
+        while steps_saved() <= before && start.elapsed() < Duration::from_secs(60) {
+            std::thread::sleep(Duration::from_millis(2));
+        }
+        std::thread::sleep(Duration::from_secs_f64(rng.random_range(0.0..0.08)));
+        assert!(
+            child.try_wait().unwrap().is_none(),
+            "the run finished before it was killed"
+        );
+        child.kill().unwrap(); // SIGKILL on unix
+        child.wait().unwrap();
+        saved.push(steps_saved());
+    }
+    eprintln!("checkpoints at the kills: {saved:?}");
+    assert!(
+        saved.windows(2).all(|w| w[1] > w[0]) && *saved.last().unwrap() < 4000,
+        "checkpoints {saved:?}"
+    );
+    let last = hbis(d.path(), &args("resumed"), "2");
+    assert!(last.status.success(), "{}", stderr(&last));
+    assert_eq!(
+        without_wall_time(&d.path().join("whole/fit.json")),
+        without_wall_time(&d.path().join("resumed/fit.json"))
+    );
+    for e in 1..=4 {
+        let name = format!("chains/chain-{e}.csv");
+        assert_eq!(
+            strip_times(&d.path().join("whole").join(&name)),
+            strip_times(&d.path().join("resumed").join(&name))
+        );
+    }
 }

@@ -6,11 +6,12 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
 use hbis::data::synthesize;
-use hbis::inference::{MapSettings, Noise, Posterior, Priors};
+use hbis::inference::{MapSettings, Noise, Posterior, Priors, SampleSettings};
 use hbis::model::physical::Physical;
 use hbis::model::response::grid_len;
 use hbis::model::{ModelSpec, Params, PhaseKind, Response};
 use hbis::report;
+use hbis::study::FitOptions;
 use rand::{rngs::StdRng, SeedableRng};
 
 #[derive(Debug, clap::Args)]
@@ -73,8 +74,8 @@ pub fn run(a: Args) -> Result<()> {
 /// Seed of the demo's synthetic record and of its fit.
 const SEED: u64 = 2026;
 
-/// Fits a synthetic record made from Test 3 with 1.5 % noise, and prints
-/// the MAP beside the truth.
+/// Fits a synthetic record made from Test 3 with 1.5 % noise: the MAP, the
+/// posterior and the identifiability report, beside the truth.
 fn identify(out: &mut impl Write, dir: &Path) -> Result<()> {
     let spec = ModelSpec::FULL;
     let truth = Params::table_8_1(3)
@@ -96,29 +97,57 @@ fn identify(out: &mut impl Write, dir: &Path) -> Result<()> {
     )?;
     let data = syn.record.aligned(None)?;
     let names = Posterior::names_for(&spec, Noise::White);
-    let fitted = super::fit::fit(
+    let fit_dir = dir.join("fit");
+    let options = FitOptions {
+        seed: SEED,
+        map: MapSettings::default(),
+        sample: Some(SampleSettings::default()),
+        checkpoint: Some(fit_dir.join("checkpoint")),
+        forces: Some((RELEASED_FORCE_TEST3, STATIC_FRICTION)),
+        label: record_path.display().to_string(),
+    };
+    let fit = super::fit::run_fit(
         spec,
         data,
         Priors::defaults(&names)?,
         Noise::White,
-        &MapSettings::default(),
-        SEED,
+        &options,
     )?;
-    super::fit::print_map(out, &fitted.map)?;
+    super::fit::print_map(out, &fit.map)?;
+    super::fit::print_posterior(out, &fit)?;
+    writeln!(out, "\nAgainst the truth the record was made from:")?;
     writeln!(
         out,
-        "  {:6}   {:>12} {:>12} {:>9}",
-        "", "MAP", "truth", "error"
+        "  {:6} {:>12} {:>12} {:>12} {:>26} {:>8}",
+        "", "truth", "MAP", "mean", "90 % interval", "covers"
     )?;
-    for ((name, v), t) in fitted.map.names.iter().zip(&fitted.map.theta).zip(&truth) {
+    let sums = fit
+        .summaries
+        .as_ref()
+        .context("the demo samples the posterior")?;
+    for (((name, v), t), s) in fit
+        .map
+        .names
+        .iter()
+        .zip(&fit.map.theta)
+        .zip(&truth)
+        .zip(sums)
+    {
         writeln!(
             out,
-            "  {name:6}   {v:>12.6} {t:>12.6} {:>8.2}%",
-            100.0 * (v - t) / t.abs()
+            "  {name:6} {t:>12.6} {v:>12.6} {:>12.6} [{:>11.6}, {:>11.6}] {:>8}",
+            s.mean,
+            s.q05,
+            s.q95,
+            if s.q05 <= *t && *t <= s.q95 {
+                "yes"
+            } else {
+                "no"
+            }
         )?;
     }
-    let fit_dir = dir.join("fit");
-    fitted.write(
+    super::fit::write_outputs(
+        &fit,
         &fit_dir,
         &record_path.display().to_string(),
         &spec,
@@ -127,13 +156,18 @@ fn identify(out: &mut impl Write, dir: &Path) -> Result<()> {
     )?;
     writeln!(
         out,
-        "wrote {} (same as: hbis fit --data {} --seed {SEED} --out {})",
+        "wrote {} and the chains, fit.png, corner.png, trace.png beside it (same as: hbis fit --data {} --seed {SEED} \
+         --released-force {RELEASED_FORCE_TEST3} --static-friction {STATIC_FRICTION} --out {})",
         fit_dir.join("fit.json").display(),
         record_path.display(),
         fit_dir.display()
     )?;
     Ok(())
 }
+
+/// Table 8.2: the force released in Test 3 and the static friction (kN).
+const RELEASED_FORCE_TEST3: f64 = 1050.0;
+const STATIC_FRICTION: f64 = 100.0;
 
 /// The facts a reader checks first: the branches between reversals, peak
 /// velocity, residual displacement and the energy balance.

@@ -1,14 +1,17 @@
-//! `hbis fit`: the MAP of a model for a measured record.
+//! `hbis fit`: the MAP and the posterior of a model for a measured record.
 
-use std::io::Write;
+use std::io::{IsTerminal, Write};
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
 use hbis::data::{Aligned, Record};
-use hbis::inference::{find_map, MapEstimate, MapSettings, Noise, Posterior, Priors};
+use hbis::inference::{
+    MapEstimate, MapSettings, Noise, Posterior, Priors, Progress, SampleSettings,
+};
 use hbis::model::ModelSpec;
 use hbis::report::json::{DataInfo, FitReport};
-use rand::{rngs::StdRng, SeedableRng};
+use hbis::study::{fit_record, predictive_band, Fit, FitOptions};
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 
 use super::inputs;
 
@@ -26,7 +29,7 @@ pub struct Args {
     /// Seed of every random number (results depend on nothing else).
     #[arg(long, default_value_t = 1)]
     seed: u64,
-    /// Output folder for fit.json, fit.csv and fit.png.
+    /// Output folder.
     #[arg(long, default_value = "hbis-fit")]
     out: PathBuf,
     /// Also print fit.json to standard output.
@@ -41,6 +44,27 @@ pub struct Args {
     /// CMA-ES evaluation budget.
     #[arg(long, default_value_t = 200_000)]
     max_evals: usize,
+    /// The MAP only: skip the posterior sampling.
+    #[arg(long)]
+    map_only: bool,
+    /// Walkers per ensemble (default max(32, 4 x parameters)).
+    #[arg(long)]
+    walkers: Option<usize>,
+    /// Independent ensembles (for R-hat; at least 2).
+    #[arg(long, default_value_t = 4)]
+    ensembles: usize,
+    /// Run until the kept chain is this many autocorrelation times long.
+    #[arg(long, default_value_t = 50.0)]
+    tau_multiple: f64,
+    /// Budget: most steps per ensemble.
+    #[arg(long, default_value_t = 20_000)]
+    max_steps: usize,
+    /// Released force F0^n (kN), for the posterior of the Table 8.2 quantities.
+    #[arg(long, requires = "static_friction")]
+    released_force: Option<f64>,
+    /// Static friction F_fS (kN), with --released-force.
+    #[arg(long, requires = "released_force")]
+    static_friction: Option<f64>,
 }
 
 pub fn run(a: Args) -> Result<()> {
@@ -59,20 +83,54 @@ pub fn run(a: Args) -> Result<()> {
         }
         None => Priors::defaults(&names)?,
     };
-    let settings = MapSettings::default().with_max_evals(a.max_evals)?;
-    let source = a.data.display().to_string();
-    let fitted = fit(spec, data, priors, noise, &settings, a.seed)?;
+    let forces = match (a.released_force, a.static_friction) {
+        (Some(f), Some(s)) => Some((f, s)),
+        _ => None,
+    };
+    let mut sample = SampleSettings::default()
+        .with_ensembles(a.ensembles)
+        .context("--ensembles")?
+        .with_tau_multiple(a.tau_multiple)
+        .context("--tau-multiple")?
+        .with_max_steps(a.max_steps)
+        .context("--max-steps")?;
+    if let Some(w) = a.walkers {
+        sample = sample.with_walkers(w).context("--walkers")?;
+    }
+    let options = FitOptions {
+        seed: a.seed,
+        map: MapSettings::default()
+            .with_max_evals(a.max_evals)
+            .context("--max-evals")?,
+        sample: (!a.map_only).then_some(sample),
+        checkpoint: Some(a.out.join("checkpoint")),
+        forces,
+        label: a.data.display().to_string(),
+    };
     let mut err = std::io::stderr().lock();
     writeln!(
         err,
         "release at t0 = {} s ({}), {} samples at dt = {} s",
-        fitted.data.t0,
-        fitted.data.source.as_str(),
-        fitted.data.a.len(),
-        fitted.data.dt
+        data.t0,
+        data.source.as_str(),
+        data.a.len(),
+        data.dt
     )?;
-    print_map(&mut err, &fitted.map)?;
-    let report = fitted.write(&a.out, &source, &spec, a.seed, noise)?;
+    drop(err);
+    let fit = run_fit(spec, data, priors, noise, &options)?;
+    let mut err = std::io::stderr().lock();
+    print_map(&mut err, &fit.map)?;
+    if fit.sample.is_some() {
+        print_posterior(&mut err, &fit)?;
+    }
+    let report = write_outputs(
+        &fit,
+        &a.out,
+        &a.data.display().to_string(),
+        &spec,
+        a.seed,
+        noise,
+    )?;
     writeln!(err, "wrote {}", a.out.join("fit.json").display())?;
     if a.json {
         println!("{}", serde_json::to_string_pretty(&report)?);
@@ -80,81 +138,151 @@ pub fn run(a: Args) -> Result<()> {
     Ok(())
 }
 
-/// A fitted record: the posterior's pieces and its MAP.
-pub struct Fitted {
-    pub data: Aligned,
-    pub posterior: Posterior<ModelSpec>,
-    pub map: MapEstimate,
-}
-
-/// The MAP for a record, seeded.
-pub fn fit(
+/// Runs the study with a progress bar on stderr when it is a terminal.
+pub fn run_fit(
     spec: ModelSpec,
     data: Aligned,
     priors: Priors,
     noise: Noise,
-    settings: &MapSettings,
-    seed: u64,
-) -> Result<Fitted> {
-    let posterior = Posterior::new(spec, data.clone(), priors, noise)?;
-    let mut rng = StdRng::seed_from_u64(seed);
-    let map = find_map(&posterior, settings, &mut rng).context("MAP search")?;
-    Ok(Fitted {
-        data,
-        posterior,
-        map,
-    })
+    options: &FitOptions,
+) -> Result<Fit> {
+    let bar = if std::io::stderr().is_terminal() {
+        let b = ProgressBar::with_draw_target(Some(1), ProgressDrawTarget::stderr());
+        b.set_style(
+            ProgressStyle::with_template("sampling {bar:40} {pos}/{len} steps {msg} [{elapsed}]")
+                .expect("a valid template"),
+        );
+        Some(b)
+    } else {
+        None
+    };
+    let mut progress = |p: Progress| {
+        if let Some(b) = &bar {
+            b.set_length(p.target_steps.max(p.steps) as u64);
+            b.set_position(p.steps as u64);
+            if p.tau_max.is_finite() {
+                b.set_message(format!("(tau = {:.0})", p.tau_max));
+            }
+        }
+    };
+    let fit = fit_record(spec, data, Some(priors), noise, options, &mut progress).context("fit")?;
+    if let Some(b) = bar {
+        b.finish_and_clear();
+    }
+    Ok(fit)
 }
 
-impl Fitted {
-    /// Writes fit.json, fit.csv (t, measured, model, residual) and fit.png.
-    pub fn write(
-        &self,
-        out: &Path,
-        source: &str,
-        spec: &ModelSpec,
-        seed: u64,
-        noise: Noise,
-    ) -> Result<FitReport> {
-        std::fs::create_dir_all(out)
-            .with_context(|| format!("cannot create folder {}", out.display()))?;
-        let report = FitReport::from_map(
-            &spec.to_string(),
-            seed,
-            noise,
-            DataInfo::new(source, &self.data),
-            &self.map,
-        );
-        let path = out.join("fit.json");
-        std::fs::write(&path, serde_json::to_string_pretty(&report)? + "\n")
-            .with_context(|| format!("cannot write {}", path.display()))?;
-        let model = self.posterior.model_accel(&self.map.theta)?;
-        let t: Vec<f64> = (0..model.len())
-            .map(|i| self.data.t0 + i as f64 * self.data.dt)
-            .collect();
-        let mut csv = String::from("t,a_measured,a_model,residual\n");
-        for i in 0..model.len() {
-            csv.push_str(&format!(
-                "{},{},{},{}\n",
-                t[i],
-                self.data.a[i],
-                model[i],
-                self.data.a[i] - model[i]
-            ));
+/// Writes fit.json, fit.csv, the chains and the figures.
+pub fn write_outputs(
+    fit: &Fit,
+    out: &Path,
+    source: &str,
+    spec: &ModelSpec,
+    seed: u64,
+    noise: Noise,
+) -> Result<FitReport> {
+    std::fs::create_dir_all(out)
+        .with_context(|| format!("cannot create folder {}", out.display()))?;
+    let data = fit.posterior.data();
+    let mut chain_files = Vec::new();
+    if let Some(sample) = &fit.sample {
+        let dir = out.join("chains");
+        std::fs::create_dir_all(&dir)
+            .with_context(|| format!("cannot create folder {}", dir.display()))?;
+        for e in 0..sample.chains.len() {
+            let name = format!("chains/chain-{}.csv", e + 1);
+            let path = out.join(&name);
+            let f = std::fs::File::create(&path)
+                .with_context(|| format!("cannot create {}", path.display()))?;
+            hbis::report::cmdstan::write_chain(
+                std::io::BufWriter::new(f),
+                sample,
+                e,
+                &spec.to_string(),
+                seed,
+            )
+            .with_context(|| format!("writing {}", path.display()))?;
+            chain_files.push(name);
         }
-        let path = out.join("fit.csv");
-        std::fs::write(&path, csv).with_context(|| format!("cannot write {}", path.display()))?;
-        #[cfg(feature = "figures")]
-        hbis::report::figures::fit_figure(
+    }
+    let report = FitReport::from_fit(
+        &spec.to_string(),
+        seed,
+        noise,
+        DataInfo::new(source, data),
+        fit,
+        chain_files,
+    );
+    let path = out.join("fit.json");
+    std::fs::write(&path, serde_json::to_string_pretty(&report)? + "\n")
+        .with_context(|| format!("cannot write {}", path.display()))?;
+    let model = fit.posterior.model_accel(&fit.map.theta)?;
+    let band = predictive_band(fit, 200, seed)?;
+    let t: Vec<f64> = (0..model.len())
+        .map(|i| data.t0 + i as f64 * data.dt)
+        .collect();
+    let mut csv = String::from("t,a_measured,a_model,residual");
+    if band.is_some() {
+        csv.push_str(",a_q05,a_q95");
+    }
+    csv.push('\n');
+    for i in 0..model.len() {
+        csv.push_str(&format!(
+            "{},{},{},{}",
+            t[i],
+            data.a[i],
+            model[i],
+            data.a[i] - model[i]
+        ));
+        if let Some((lo, hi)) = &band {
+            csv.push_str(&format!(",{},{}", lo[i], hi[i]));
+        }
+        csv.push('\n');
+    }
+    let path = out.join("fit.csv");
+    std::fs::write(&path, csv).with_context(|| format!("cannot write {}", path.display()))?;
+    #[cfg(feature = "figures")]
+    {
+        use hbis::report::figures;
+        figures::fit_figure(
             &out.join("fit.png"),
             &t,
-            &self.data.a,
+            &data.a,
             &model,
-            None,
-            &format!("{spec}: MAP fit, e2 = {:.5}", self.map.eval.e2),
+            band.as_ref().map(|(l, h)| (l.as_slice(), h.as_slice())),
+            &format!("{spec}: MAP fit, e2 = {:.5}", fit.map.eval.e2),
         )?;
-        Ok(report)
+        if let Some(sample) = &fit.sample {
+            let points = sample.points();
+            let stride = (points.len() / 3000).max(1);
+            let thin: Vec<Vec<f64>> = points.into_iter().step_by(stride).collect();
+            figures::corner_figure(
+                &out.join("corner.png"),
+                &sample.names,
+                &thin,
+                Some(&fit.map.theta),
+                &format!("{spec}: posterior (red: MAP)"),
+            )?;
+            let c = &sample.chains[0];
+            let walkers: Vec<usize> = (0..c.walkers()).step_by((c.walkers() / 8).max(1)).collect();
+            let traces: Vec<Vec<Vec<f64>>> = (0..c.dim())
+                .map(|k| {
+                    walkers
+                        .iter()
+                        .map(|&w| (0..c.steps()).map(|s| c.get(s, w)[k]).collect())
+                        .collect()
+                })
+                .collect();
+            figures::trace_figure(
+                &out.join("trace.png"),
+                &sample.names,
+                &traces,
+                sample.burn,
+                &format!("{spec}: traces of ensemble 1 (black line: end of burn-in)"),
+            )?;
+        }
     }
+    Ok(report)
 }
 
 /// The MAP as a table, with the search's numbers.
@@ -178,5 +306,85 @@ pub fn print_map(out: &mut impl Write, map: &MapEstimate) -> Result<()> {
     for (n, v) in map.names.iter().zip(&map.theta) {
         writeln!(out, "  {n:6} = {v:>12.6}")?;
     }
+    Ok(())
+}
+
+/// The posterior table, diagnostics and the identifiability report.
+pub fn print_posterior(out: &mut impl Write, fit: &Fit) -> Result<()> {
+    let (Some(sample), Some(sums), Some(id)) = (&fit.sample, &fit.summaries, &fit.identifiability)
+    else {
+        return Ok(());
+    };
+    writeln!(
+        out,
+        "\nPosterior: {} ensembles x {} walkers, {} steps ({} burn-in), {} evaluations in {:.2} s; {}",
+        sample.chains.len(),
+        sample.chains[0].walkers(),
+        sample.steps(),
+        sample.burn,
+        sample.evaluations,
+        sample.wall_time,
+        if sample.converged {
+            "converged (chain longer than the requested autocorrelation times)"
+        } else {
+            "NOT converged: budget spent before the chain reached the requested autocorrelation times"
+        }
+    )?;
+    writeln!(
+        out,
+        "  {:6} {:>12} {:>10} {:>7} {:>12} {:>12} {:>12} {:>7} {:>6}",
+        "", "mean", "sd", "c.o.v.", "q05", "q50", "q95", "ESS", "R-hat"
+    )?;
+    for (k, (n, s)) in sample.names.iter().zip(sums).enumerate() {
+        writeln!(
+            out,
+            "  {n:6} {:>12.6} {:>10.3e} {:>6.1}% {:>12.6} {:>12.6} {:>12.6} {:>7.0} {:>6.3}",
+            s.mean,
+            s.sd,
+            100.0 * s.cov,
+            s.q05,
+            s.q50,
+            s.q95,
+            sample.ess[k],
+            sample.rhat[k]
+        )?;
+    }
+    writeln!(
+        out,
+        "  acceptance {:?}",
+        sample
+            .acceptance
+            .iter()
+            .map(|a| (a * 1000.0).round() / 1000.0)
+            .collect::<Vec<_>>()
+    )?;
+    if let Some(phys) = &fit.physical {
+        writeln!(out, "\nPhysical quantities (eq. 8.1), posterior:")?;
+        for (n, s) in phys {
+            writeln!(
+                out,
+                "  {n:3} mean {:>10.1}  sd {:>8.1}  90 % [{:.1}, {:.1}]",
+                s.mean, s.sd, s.q05, s.q95
+            )?;
+        }
+    }
+    writeln!(
+        out,
+        "\nIdentifiability (best determined first): {}",
+        id.ranking.join(", ")
+    )?;
+    writeln!(
+        out,
+        "  {:6} {:>11} {:>10} {:>9} {:>14}",
+        "", "contraction", "inflation", "partner", "correlation"
+    )?;
+    for (n, p) in &id.params {
+        writeln!(
+            out,
+            "  {n:6} {:>11.4} {:>10.2} {:>9} {:>+14.2}",
+            p.contraction, p.variance_inflation, p.partner, p.partner_correlation
+        )?;
+    }
+    writeln!(out, "\n{}", id.explanation)?;
     Ok(())
 }

@@ -1,13 +1,19 @@
 //! The Bayesian layer: priors, likelihood, posterior, the MAP by CMA-ES and
-//! an `argmin` polish.
+//! an `argmin` polish, the ensemble sampler and its diagnostics.
 
+pub mod autocorr;
 pub mod bounds;
 pub mod cmaes;
+pub mod diagnostics;
+pub mod ensemble;
+pub mod identifiability;
 pub mod likelihood;
 pub mod map;
 pub mod polish;
 pub mod posterior;
 pub mod priors;
+pub mod sample;
+pub mod summary;
 
 pub use bounds::{BoundsError, BoxTransform};
 pub use cmaes::{Cmaes, CmaesError, CmaesResult, RunSummary, Start, StopReason};
@@ -16,3 +22,7 @@ pub use map::{find_map, MapError, MapEstimate, MapSettings, PolishReport};
 pub use polish::{Polish, PolishError, PolishOutcome};
 pub use posterior::{Evaluation, Posterior, PosteriorError};
 pub use priors::{default_bounds, Prior, PriorError, Priors};
+pub use sample::{
+    conditional_scales, sample_posterior, PosteriorSample, Progress, SampleError, SampleSettings,
+};
+pub use summary::ParamSummary;

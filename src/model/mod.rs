@@ -70,8 +70,7 @@ impl ForwardModel for ModelSpec {
         if self.spring != SpringKind::Trilinear {
             return true;
         }
-        let names = ModelSpec::param_names(self);
-        let at = |p: ParamName| names.iter().position(|&q| q == p).map(|i| theta[i]);
+        let at = |p: ParamName| self.used().position(|q| q == p).map(|i| theta[i]);
         match (at(ParamName::U3), at(ParamName::U0)) {
             (Some(u3), Some(u0)) => u3 < u0,
             _ => true,

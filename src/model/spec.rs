@@ -116,19 +116,26 @@ impl ModelSpec {
 
     /// Parameters from values in the order of [`ModelSpec::param_names`].
     pub fn params_from_slice(&self, theta: &[f64]) -> Result<Params, ParamError> {
-        let names = self.param_names();
-        if theta.len() != names.len() {
+        // No allocation: this runs once per posterior evaluation.
+        let expected = self.used().count();
+        if theta.len() != expected {
             return Err(ParamError::Length {
                 model: self.to_string(),
-                expected: names.len(),
+                expected,
                 found: theta.len(),
             });
         }
         let mut out = Self::neutral();
-        for (p, &v) in names.into_iter().zip(theta) {
+        for (p, &v) in self.used().zip(theta) {
             out.set(p, v);
         }
         self.finish(out)
+    }
+
+    /// The parameters this model needs, in the paper's order, without
+    /// allocating.
+    pub fn used(&self) -> impl Iterator<Item = ParamName> + '_ {
+        ParamName::ALL.into_iter().filter(move |&p| self.uses(p))
     }
 
     /// Keep only what this model uses from a full parameter set (the rest set

@@ -370,6 +370,228 @@ fn draw_fit<DB: DrawingBackend>(
     root.present().map_err(|e| e.to_string())
 }
 
+/// A corner plot: histograms of each parameter on the diagonal, pairwise
+/// scatter of the draws below it. `points` are draws (thin them to a few
+/// thousand); `marks` optional reference values (e.g. the MAP or a truth).
+pub fn corner_figure(
+    path: &Path,
+    names: &[String],
+    points: &[Vec<f64>],
+    marks: Option<&[f64]>,
+    title: &str,
+) -> Result<(), FigureError> {
+    let ext = checked_extension(path)?;
+    let d = names.len();
+    let size = ((260 * d as u32).max(600), (260 * d as u32).max(600));
+    let result = if ext == "png" {
+        draw_corner(
+            BitMapBackend::new(path, size).into_drawing_area(),
+            names,
+            points,
+            marks,
+            title,
+        )
+    } else {
+        draw_corner(
+            SVGBackend::new(path, size).into_drawing_area(),
+            names,
+            points,
+            marks,
+            title,
+        )
+    };
+    result.map_err(|message| FigureError::Draw {
+        path: path.to_path_buf(),
+        message,
+    })
+}
+
+fn draw_corner<DB: DrawingBackend>(
+    root: DrawingArea<DB, Shift>,
+    names: &[String],
+    points: &[Vec<f64>],
+    marks: Option<&[f64]>,
+    title: &str,
+) -> Result<(), String> {
+    let e = |x: DrawingAreaErrorKind<DB::ErrorType>| x.to_string();
+    root.fill(&WHITE).map_err(e)?;
+    let root = root.titled(title, (FONT, 26)).map_err(e)?;
+    let d = names.len();
+    let cells = root.split_evenly((d, d));
+    let ranges: Vec<std::ops::Range<f64>> =
+        (0..d).map(|k| range(points.iter().map(|p| p[k]))).collect();
+    let blue = RGBColor(31, 119, 180);
+    for i in 0..d {
+        for j in 0..d {
+            let area = &cells[i * d + j];
+            if j > i {
+                continue;
+            }
+            let x_label = if i == d - 1 { names[j].as_str() } else { "" };
+            if i == j {
+                let bins = 30usize;
+                let r = &ranges[i];
+                let w = (r.end - r.start) / bins as f64;
+                let mut counts = vec![0u32; bins];
+                for p in points {
+                    let b = (((p[i] - r.start) / w) as usize).min(bins - 1);
+                    counts[b] += 1;
+                }
+                let top = counts.iter().copied().max().unwrap_or(1) as f64 * 1.1;
+                let mut chart = ChartBuilder::on(area)
+                    .margin(4)
+                    .x_label_area_size(if i == d - 1 { 30 } else { 5 })
+                    .y_label_area_size(5)
+                    .build_cartesian_2d(r.clone(), 0.0..top)
+                    .map_err(e)?;
+                chart
+                    .configure_mesh()
+                    .disable_mesh()
+                    .x_desc(x_label)
+                    .x_labels(3)
+                    .y_labels(0)
+                    .label_style((FONT, 11))
+                    .axis_desc_style((FONT, 14))
+                    .draw()
+                    .map_err(e)?;
+                chart
+                    .draw_series(counts.iter().enumerate().map(|(b, &c)| {
+                        let x0 = r.start + b as f64 * w;
+                        Rectangle::new([(x0, 0.0), (x0 + w, c as f64)], blue.mix(0.6).filled())
+                    }))
+                    .map_err(e)?;
+                if let Some(m) = marks {
+                    chart
+                        .draw_series(std::iter::once(PathElement::new(
+                            [(m[i], 0.0), (m[i], top)],
+                            RED.stroke_width(2),
+                        )))
+                        .map_err(e)?;
+                }
+                // Name each diagonal cell, since inner cells carry no axis titles.
+                area.draw_text(&names[i], &(FONT, 16).into_text_style(area), (8, 4))
+                    .map_err(e)?;
+            } else {
+                let mut chart = ChartBuilder::on(area)
+                    .margin(4)
+                    .x_label_area_size(if i == d - 1 { 30 } else { 5 })
+                    .y_label_area_size(if j == 0 { 45 } else { 5 })
+                    .build_cartesian_2d(ranges[j].clone(), ranges[i].clone())
+                    .map_err(e)?;
+                chart
+                    .configure_mesh()
+                    .disable_mesh()
+                    .x_desc(x_label)
+                    .y_desc(if j == 0 { names[i].as_str() } else { "" })
+                    .x_labels(3)
+                    .y_labels(if j == 0 { 3 } else { 0 })
+                    .label_style((FONT, 11))
+                    .axis_desc_style((FONT, 14))
+                    .draw()
+                    .map_err(e)?;
+                chart
+                    .draw_series(
+                        points
+                            .iter()
+                            .map(|p| Circle::new((p[j], p[i]), 1, blue.mix(0.3).filled())),
+                    )
+                    .map_err(e)?;
+                if let Some(m) = marks {
+                    chart
+                        .draw_series(std::iter::once(Circle::new((m[j], m[i]), 4, RED.filled())))
+                        .map_err(e)?;
+                }
+            }
+        }
+    }
+    root.present().map_err(e)
+}
+
+/// Trace plots: each parameter against the step for some walkers of one
+/// ensemble, with the end of burn-in marked. `traces[k][w]` is walker `w`'s
+/// series of parameter `k`.
+pub fn trace_figure(
+    path: &Path,
+    names: &[String],
+    traces: &[Vec<Vec<f64>>],
+    burn: usize,
+    title: &str,
+) -> Result<(), FigureError> {
+    let ext = checked_extension(path)?;
+    let size = (1400, (180 * names.len() as u32).max(500));
+    let result = if ext == "png" {
+        draw_traces(
+            BitMapBackend::new(path, size).into_drawing_area(),
+            names,
+            traces,
+            burn,
+            title,
+        )
+    } else {
+        draw_traces(
+            SVGBackend::new(path, size).into_drawing_area(),
+            names,
+            traces,
+            burn,
+            title,
+        )
+    };
+    result.map_err(|message| FigureError::Draw {
+        path: path.to_path_buf(),
+        message,
+    })
+}
+
+fn draw_traces<DB: DrawingBackend>(
+    root: DrawingArea<DB, Shift>,
+    names: &[String],
+    traces: &[Vec<Vec<f64>>],
+    burn: usize,
+    title: &str,
+) -> Result<(), String> {
+    let e = |x: DrawingAreaErrorKind<DB::ErrorType>| x.to_string();
+    root.fill(&WHITE).map_err(e)?;
+    let root = root.titled(title, (FONT, 24)).map_err(e)?;
+    let rows = root.split_evenly((names.len(), 1));
+    for (k, area) in rows.iter().enumerate() {
+        let steps = traces[k].first().map_or(0, Vec::len);
+        let yr = range(traces[k].iter().flat_map(|t| t.iter().copied()));
+        let mut chart = ChartBuilder::on(area)
+            .margin(4)
+            .x_label_area_size(if k == names.len() - 1 { 30 } else { 5 })
+            .y_label_area_size(80)
+            .build_cartesian_2d(0.0..steps.max(1) as f64, yr.clone())
+            .map_err(e)?;
+        chart
+            .configure_mesh()
+            .disable_mesh()
+            .y_desc(names[k].as_str())
+            .x_desc(if k == names.len() - 1 { "step" } else { "" })
+            .x_labels(if k == names.len() - 1 { 8 } else { 0 })
+            .y_labels(3)
+            .label_style((FONT, 12))
+            .axis_desc_style((FONT, 15))
+            .draw()
+            .map_err(e)?;
+        for (w, t) in traces[k].iter().enumerate() {
+            let colour = Palette99::pick(w).mix(0.6);
+            chart
+                .draw_series(LineSeries::new(
+                    t.iter().enumerate().map(|(s, v)| (s as f64, *v)),
+                    colour,
+                ))
+                .map_err(e)?;
+        }
+        chart
+            .draw_series(std::iter::once(PathElement::new(
+                [(burn as f64, yr.start), (burn as f64, yr.end)],
+                BLACK.stroke_width(2),
+            )))
+            .map_err(e)?;
+    }
+    root.present().map_err(e)
+}
+
 /// The lowercase extension (`png` or `svg`), with the font registered.
 fn checked_extension(path: &Path) -> Result<String, FigureError> {
     let ext = path

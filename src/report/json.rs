@@ -6,7 +6,10 @@ use std::collections::BTreeMap;
 use serde::Serialize;
 
 use crate::data::Aligned;
-use crate::inference::{MapEstimate, Noise};
+use crate::inference::identifiability::ParamIdentifiability;
+use crate::inference::{MapEstimate, Noise, ParamSummary};
+use crate::model::physical::Physical;
+use crate::study::Fit;
 
 /// Where the record came from and how it was aligned.
 #[derive(Debug, Clone, Serialize)]
@@ -99,8 +102,73 @@ pub struct FitReport {
     pub cmaes_runs: Vec<RunInfo>,
     /// The polish.
     pub polish: Option<PolishInfo>,
-    /// Wall time of the MAP search (s); the only key that varies between
-    /// runs with the same seed.
+    /// Wall time of the MAP search (s); with `sampling.wall_time_s` the only
+    /// keys that vary between runs with the same seed.
+    pub wall_time_s: f64,
+    /// Posterior summaries by parameter (present when sampled).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub posterior: Option<BTreeMap<String, ParamSummary>>,
+    /// Parameter names, best determined first.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub ranking: Option<Vec<String>>,
+    /// The least determined parameter.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub weakest: Option<String>,
+    /// Why it is weak.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub explanation: Option<String>,
+    /// Per-parameter identifiability numbers.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub identifiability: Option<BTreeMap<String, ParamIdentifiability>>,
+    /// Posterior correlation matrix, rows and columns in `names` order.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub correlation: Option<Correlation>,
+    /// Sampler diagnostics.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub sampling: Option<SamplingInfo>,
+    /// Table 8.2 quantities at the MAP (when forces were given).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub physical_map: Option<Physical>,
+    /// Posterior of the Table 8.2 quantities (when forces were given).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub physical: Option<BTreeMap<String, ParamSummary>>,
+}
+
+/// A correlation matrix with its names.
+#[derive(Debug, Clone, Serialize)]
+pub struct Correlation {
+    /// Row and column names.
+    pub names: Vec<String>,
+    /// The matrix, row-major.
+    pub matrix: Vec<Vec<f64>>,
+}
+
+/// How the posterior was sampled and how well.
+#[derive(Debug, Clone, Serialize)]
+pub struct SamplingInfo {
+    /// Independent ensembles.
+    pub ensembles: usize,
+    /// Walkers per ensemble.
+    pub walkers: usize,
+    /// Steps per ensemble, burn-in included.
+    pub steps: usize,
+    /// Burn-in steps discarded.
+    pub burn_in: usize,
+    /// Whether the chain exceeded the requested number of autocorrelation times.
+    pub converged: bool,
+    /// Largest autocorrelation time over ensembles, by parameter (steps).
+    pub tau: BTreeMap<String, f64>,
+    /// Effective sample size by parameter.
+    pub ess: BTreeMap<String, f64>,
+    /// Rank-normalised split R-hat across ensembles, by parameter.
+    pub rhat: BTreeMap<String, f64>,
+    /// Acceptance fraction of each ensemble.
+    pub acceptance: Vec<f64>,
+    /// Log-posterior evaluations in this process.
+    pub evaluations: u64,
+    /// Chain files (CmdStan CSV), relative to the output folder.
+    pub chains: Vec<String>,
+    /// Wall time of the sampling in this process (s).
     pub wall_time_s: f64,
 }
 
@@ -152,6 +220,68 @@ impl FitReport {
                 termination: p.termination.clone(),
             }),
             wall_time_s: map.wall_time,
+            posterior: None,
+            ranking: None,
+            weakest: None,
+            explanation: None,
+            identifiability: None,
+            correlation: None,
+            sampling: None,
+            physical_map: None,
+            physical: None,
         }
+    }
+
+    /// Builds the report of a whole fit; `chains` are the chain files written.
+    pub fn from_fit(
+        model: &str,
+        seed: u64,
+        noise: Noise,
+        data: DataInfo,
+        fit: &Fit,
+        chains: Vec<String>,
+    ) -> Self {
+        let mut r = Self::from_map(model, seed, noise, data, &fit.map);
+        let names = fit.names().to_vec();
+        let by_name = |v: &[f64]| -> BTreeMap<String, f64> {
+            names.iter().cloned().zip(v.iter().copied()).collect()
+        };
+        if let Some(s) = &fit.summaries {
+            r.posterior = Some(names.iter().cloned().zip(s.iter().cloned()).collect());
+        }
+        if let Some(id) = &fit.identifiability {
+            r.ranking = Some(id.ranking.clone());
+            r.weakest = Some(id.weakest.clone());
+            r.explanation = Some(id.explanation.clone());
+            r.identifiability = Some(id.params.iter().cloned().collect());
+        }
+        if let Some(c) = &fit.covariance {
+            r.correlation = Some(Correlation {
+                names: names.clone(),
+                matrix: crate::inference::summary::correlation(c),
+            });
+        }
+        if let Some(s) = &fit.sample {
+            let tau_max: Vec<f64> = (0..names.len())
+                .map(|k| s.tau.iter().map(|t| t[k]).fold(0.0, f64::max))
+                .collect();
+            r.sampling = Some(SamplingInfo {
+                ensembles: s.chains.len(),
+                walkers: s.chains.first().map_or(0, |c| c.walkers()),
+                steps: s.steps(),
+                burn_in: s.burn,
+                converged: s.converged,
+                tau: by_name(&tau_max),
+                ess: by_name(&s.ess),
+                rhat: by_name(&s.rhat),
+                acceptance: s.acceptance.clone(),
+                evaluations: s.evaluations,
+                chains,
+                wall_time_s: s.wall_time,
+            });
+        }
+        r.physical_map = fit.physical_map;
+        r.physical = fit.physical.as_ref().map(|v| v.iter().cloned().collect());
+        r
     }
 }

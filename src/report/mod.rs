@@ -1,5 +1,6 @@
 //! Outputs: CSV tables and figures.
 
+pub mod cmdstan;
 pub mod csv;
 #[cfg(feature = "figures")]
 pub mod figures;

@@ -1,0 +1,795 @@
+//! Posterior sampling from the MAP: several independent ensembles of the
+//! affine-invariant sampler, run in chunks until every chain is longer than
+//! `tau_multiple` autocorrelation times or the budget is spent, with a
+//! checkpoint after every chunk.
+//!
+//! - **Start.** Each ensemble starts in a Gaussian ball around the MAP whose
+//!   per-coordinate width is the conditional standard deviation there (the
+//!   step along one axis that lowers the log-posterior by 1/2), redrawn
+//!   until every walker has positive density and the walkers span all
+//!   dimensions.
+//! - **Burn-in and convergence.** At checks (every chunk at first, then
+//!   every fifth of the run so far) the autocorrelation time `tau` of every
+//!   parameter in every ensemble is estimated on the second half of the
+//!   chain; burn-in is `burn_multiple * tau_max` steps (at most half the
+//!   run), and the run stops once the kept part is `tau_multiple * tau_max`
+//!   steps long.
+//! - **Determinism and resumption.** Ensemble `e`'s random numbers in chunk
+//!   `c` come from a generator seeded by `(seed, e, c)` alone. A checkpoint
+//!   is written after each chunk (chains appended to one binary file per
+//!   ensemble, then a small state file replaced atomically), so a run killed
+//!   at any moment resumes from the last complete chunk and ends with
+//!   exactly the result of an uninterrupted run.
+
+use std::fs::{File, OpenOptions};
+use std::io::{Read, Seek, SeekFrom, Write};
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use rand::rngs::StdRng;
+use rand::SeedableRng;
+use rand_distr::{Distribution, StandardNormal};
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+use thiserror::Error;
+
+use super::autocorr::integrated_time;
+use super::diagnostics::split_rhat;
+use super::ensemble::{Chain, Ensemble, EnsembleSampler, LogDensity, SamplerError, StretchMove};
+use super::summary::ParamSummary;
+
+/// Why posterior sampling failed.
+#[derive(Debug, Error)]
+pub enum SampleError {
+    /// A setting is out of range.
+    #[error("sampler setting `{name}`: {reason}")]
+    Setting {
+        name: &'static str,
+        reason: &'static str,
+    },
+    /// The sampler failed.
+    #[error(transparent)]
+    Sampler(#[from] SamplerError),
+    /// No valid starting ensemble could be drawn around the MAP.
+    #[error("could not draw {walkers} walkers with positive density spanning all {dim} dimensions around the MAP")]
+    Start { walkers: usize, dim: usize },
+    /// The checkpoint could not be read or written.
+    #[error("checkpoint {path}")]
+    Checkpoint {
+        path: String,
+        #[source]
+        source: std::io::Error,
+    },
+}
+
+/// Settings of a posterior run.
+#[derive(Debug, Clone)]
+pub struct SampleSettings {
+    walkers: Option<usize>,
+    ensembles: usize,
+    chunk: usize,
+    tau_multiple: f64,
+    burn_multiple: f64,
+    max_steps: usize,
+}
+
+impl Default for SampleSettings {
+    fn default() -> Self {
+        Self {
+            walkers: None,
+            ensembles: 4,
+            chunk: 100,
+            tau_multiple: 50.0,
+            burn_multiple: 5.0,
+            max_steps: 20_000,
+        }
+    }
+}
+
+impl SampleSettings {
+    /// Walkers per ensemble (even, at least `2 dim`; default
+    /// `max(32, 4 dim)` rounded up to even).
+    pub fn with_walkers(mut self, n: usize) -> Result<Self, SampleError> {
+        if n < 4 || n % 2 != 0 {
+            return Err(SampleError::Setting {
+                name: "walkers",
+                reason: "must be an even number, at least 4",
+            });
+        }
+        self.walkers = Some(n);
+        Ok(self)
+    }
+
+    /// Independent ensembles (default 4; R-hat needs at least 2).
+    pub fn with_ensembles(mut self, n: usize) -> Result<Self, SampleError> {
+        if n < 2 {
+            return Err(SampleError::Setting {
+                name: "ensembles",
+                reason: "must be at least 2",
+            });
+        }
+        self.ensembles = n;
+        Ok(self)
+    }
+
+    /// Steps per chunk (checkpoint interval; default 100).
+    pub fn with_chunk(mut self, n: usize) -> Result<Self, SampleError> {
+        if n == 0 {
+            return Err(SampleError::Setting {
+                name: "chunk",
+                reason: "must be > 0",
+            });
+        }
+        self.chunk = n;
+        Ok(self)
+    }
+
+    /// Stop once the kept chain is this many autocorrelation times long
+    /// (default 50).
+    pub fn with_tau_multiple(mut self, k: f64) -> Result<Self, SampleError> {
+        if !(k > 0.0 && k.is_finite()) {
+            return Err(SampleError::Setting {
+                name: "tau_multiple",
+                reason: "must be finite and > 0",
+            });
+        }
+        self.tau_multiple = k;
+        Ok(self)
+    }
+
+    /// Burn-in in autocorrelation times (default 5).
+    pub fn with_burn_multiple(mut self, k: f64) -> Result<Self, SampleError> {
+        if !(k >= 0.0 && k.is_finite()) {
+            return Err(SampleError::Setting {
+                name: "burn_multiple",
+                reason: "must be finite and >= 0",
+            });
+        }
+        self.burn_multiple = k;
+        Ok(self)
+    }
+
+    /// Budget: most steps per ensemble (default 20,000).
+    pub fn with_max_steps(mut self, n: usize) -> Result<Self, SampleError> {
+        if n == 0 {
+            return Err(SampleError::Setting {
+                name: "max_steps",
+                reason: "must be > 0",
+            });
+        }
+        self.max_steps = n;
+        Ok(self)
+    }
+
+    fn walkers_for(&self, dim: usize) -> usize {
+        self.walkers.unwrap_or_else(|| {
+            let n = 32.max(4 * dim);
+            n + n % 2
+        })
+    }
+}
+
+/// Where a run stands, for progress displays.
+#[derive(Debug, Clone, Copy)]
+pub struct Progress {
+    /// Steps done per ensemble.
+    pub steps: usize,
+    /// The budget.
+    pub max_steps: usize,
+    /// Latest largest autocorrelation time (NaN before the first check).
+    pub tau_max: f64,
+    /// Steps the run needs at the latest estimate.
+    pub target_steps: usize,
+}
+
+/// The posterior sample and its diagnostics.
+#[derive(Debug, Clone)]
+pub struct PosteriorSample {
+    /// Parameter names.
+    pub names: Vec<String>,
+    /// One chain per ensemble, burn-in included.
+    pub chains: Vec<Chain>,
+    /// Burn-in steps (discarded from every summary).
+    pub burn: usize,
+    /// Autocorrelation time per ensemble and parameter (kept part).
+    pub tau: Vec<Vec<f64>>,
+    /// Effective sample size per parameter, summed over ensembles.
+    pub ess: Vec<f64>,
+    /// Rank-normalised split R-hat per parameter, across ensembles.
+    pub rhat: Vec<f64>,
+    /// Acceptance fraction per ensemble.
+    pub acceptance: Vec<f64>,
+    /// Whether the run reached `tau_multiple` autocorrelation times.
+    pub converged: bool,
+    /// Log-density evaluations by the sampler over the whole run (resumed
+    /// parts included; the starting ensembles not counted).
+    pub evaluations: u64,
+    /// Wall time of this process's part of the run (s).
+    pub wall_time: f64,
+}
+
+impl PosteriorSample {
+    /// Steps per ensemble.
+    pub fn steps(&self) -> usize {
+        self.chains.first().map_or(0, Chain::steps)
+    }
+
+    /// Pooled kept draws of each parameter: `draws[k]`.
+    pub fn draws(&self) -> Vec<Vec<f64>> {
+        (0..self.names.len())
+            .map(|k| {
+                let mut v = Vec::new();
+                for c in &self.chains {
+                    for s in self.burn..c.steps() {
+                        for w in 0..c.walkers() {
+                            v.push(c.get(s, w)[k]);
+                        }
+                    }
+                }
+                v
+            })
+            .collect()
+    }
+
+    /// Kept draws as points (step-major, ensemble after ensemble).
+    pub fn points(&self) -> Vec<Vec<f64>> {
+        let mut v = Vec::new();
+        for c in &self.chains {
+            for s in self.burn..c.steps() {
+                for w in 0..c.walkers() {
+                    v.push(c.get(s, w).to_vec());
+                }
+            }
+        }
+        v
+    }
+
+    /// Summary of each parameter.
+    pub fn summaries(&self) -> Vec<ParamSummary> {
+        self.draws()
+            .par_iter()
+            .map(|d| ParamSummary::from_draws(d))
+            .collect()
+    }
+}
+
+/// Per-coordinate conditional standard deviations at `center`: the step
+/// along each axis (both ways, averaged) that lowers the log-density by 1/2,
+/// found by doubling then bisection. `range[k]` bounds the search.
+pub fn conditional_scales<D: LogDensity>(
+    density: &D,
+    center: &[f64],
+    range: &[f64],
+) -> Result<Vec<f64>, SamplerError> {
+    let lp0 = density.ln_density(center)?;
+    let mut out = Vec::with_capacity(center.len());
+    for k in 0..center.len() {
+        let mut sides = Vec::new();
+        for sign in [1.0, -1.0] {
+            let drop = |h: f64| -> Result<f64, SamplerError> {
+                let mut x = center.to_vec();
+                x[k] += sign * h;
+                Ok(lp0 - density.ln_density(&x)?)
+            };
+            let (mut lo, mut hi) = (0.0, 1e-9 * range[k]);
+            while drop(hi)? < 0.5 && hi < range[k] {
+                lo = hi;
+                hi *= 2.0;
+            }
+            if hi >= range[k] && drop(hi)? < 0.5 {
+                sides.push(range[k]);
+                continue;
+            }
+            for _ in 0..40 {
+                let mid = 0.5 * (lo + hi);
+                if drop(mid)? < 0.5 {
+                    lo = mid;
+                } else {
+                    hi = mid;
+                }
+            }
+            // A boundary (-inf) right next to the centre says nothing about
+            // the width on that side.
+            if lo > 0.0 {
+                sides.push(0.5 * (lo + hi));
+            }
+        }
+        let s = if sides.is_empty() {
+            1e-6 * range[k]
+        } else {
+            sides.iter().sum::<f64>() / sides.len() as f64
+        };
+        out.push(s);
+    }
+    Ok(out)
+}
+
+fn mix(mut z: u64) -> u64 {
+    // splitmix64: decorrelates nearby seeds.
+    z = z.wrapping_add(0x9E37_79B9_7F4A_7C15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^ (z >> 31)
+}
+
+fn stream(seed: u64, ensemble: usize, chunk: u64) -> StdRng {
+    StdRng::seed_from_u64(mix(mix(mix(seed) ^ ensemble as u64) ^ chunk))
+}
+
+/// Draws one ensemble around `center`.
+fn start<D: LogDensity>(
+    density: &D,
+    center: &[f64],
+    scale: &[f64],
+    walkers: usize,
+    seed: u64,
+    e: usize,
+) -> Result<Ensemble, SampleError> {
+    let mut rng = stream(seed, e, u64::MAX);
+    let dim = center.len();
+    for attempt in 0..20 {
+        let shrink = 0.5f64.powi(attempt);
+        let mut positions = Vec::with_capacity(walkers);
+        let mut tries = 0;
+        while positions.len() < walkers && tries < 1000 * walkers {
+            tries += 1;
+            let x: Vec<f64> = (0..dim)
+                .map(|k| {
+                    let z: f64 = StandardNormal.sample(&mut rng);
+                    center[k] + shrink * scale[k] * z
+                })
+                .collect();
+            if density.ln_density(&x)? > f64::NEG_INFINITY {
+                positions.push(x);
+            }
+        }
+        if positions.len() < walkers {
+            continue;
+        }
+        match Ensemble::new(density, positions) {
+            Ok(ens) => return Ok(ens),
+            Err(SamplerError::Degenerate { .. }) | Err(SamplerError::Outside { .. }) => continue,
+            Err(e) => return Err(e.into()),
+        }
+    }
+    Err(SampleError::Start { walkers, dim })
+}
+
+#[derive(Debug, Serialize, Deserialize)]
+struct State {
+    fingerprint: String,
+    steps: usize,
+    chunks: u64,
+    accepted: Vec<Vec<u64>>,
+}
+
+/// A checkpoint folder: `state.json` and `ensemble-<e>.bin`.
+struct Checkpoint {
+    dir: PathBuf,
+}
+
+impl Checkpoint {
+    fn err(&self, path: &Path, source: std::io::Error) -> SampleError {
+        let _ = self;
+        SampleError::Checkpoint {
+            path: path.display().to_string(),
+            source,
+        }
+    }
+
+    fn chain_path(&self, e: usize) -> PathBuf {
+        self.dir.join(format!("ensemble-{e}.bin"))
+    }
+
+    /// Restores chains if a matching state exists.
+    fn load(
+        &self,
+        fingerprint: &str,
+        walkers: usize,
+        dim: usize,
+    ) -> Result<Option<(State, Vec<Chain>)>, SampleError> {
+        let path = self.dir.join("state.json");
+        let text = match std::fs::read_to_string(&path) {
+            Ok(t) => t,
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
+            Err(e) => return Err(self.err(&path, e)),
+        };
+        let state: State = match serde_json::from_str(&text) {
+            Ok(s) => s,
+            Err(_) => return Ok(None),
+        };
+        if state.fingerprint != fingerprint {
+            return Ok(None);
+        }
+        let record = walkers * (dim + 1) * 8;
+        let mut chains = Vec::new();
+        for (e, accepted) in state.accepted.iter().enumerate() {
+            let p = self.chain_path(e);
+            let mut f = OpenOptions::new()
+                .read(true)
+                .write(true)
+                .open(&p)
+                .map_err(|x| self.err(&p, x))?;
+            let want = (state.steps * record) as u64;
+            // Steps appended after the last state was written are dropped.
+            f.set_len(want).map_err(|x| self.err(&p, x))?;
+            f.seek(SeekFrom::Start(0)).map_err(|x| self.err(&p, x))?;
+            let mut bytes = Vec::with_capacity(want as usize);
+            f.read_to_end(&mut bytes).map_err(|x| self.err(&p, x))?;
+            let values: Vec<f64> = bytes
+                .chunks_exact(8)
+                .map(|b| f64::from_le_bytes(b.try_into().expect("8 bytes")))
+                .collect();
+            let (mut samples, mut lp) = (Vec::new(), Vec::new());
+            for step in values.chunks_exact(walkers * (dim + 1)) {
+                samples.extend_from_slice(&step[..walkers * dim]);
+                lp.extend_from_slice(&step[walkers * dim..]);
+            }
+            chains.push(Chain::from_parts(
+                walkers,
+                dim,
+                samples,
+                lp,
+                accepted.clone(),
+            ));
+        }
+        Ok(Some((state, chains)))
+    }
+
+    /// Appends the new steps of each chain, then replaces the state file.
+    fn save(&self, state: &State, chains: &[Chain], from_step: usize) -> Result<(), SampleError> {
+        std::fs::create_dir_all(&self.dir).map_err(|x| self.err(&self.dir, x))?;
+        for (e, c) in chains.iter().enumerate() {
+            let p = self.chain_path(e);
+            let mut f = OpenOptions::new()
+                .create(true)
+                .append(true)
+                .open(&p)
+                .map_err(|x| self.err(&p, x))?;
+            let mut bytes =
+                Vec::with_capacity((c.steps() - from_step) * c.walkers() * (c.dim() + 1) * 8);
+            for s in from_step..c.steps() {
+                for w in 0..c.walkers() {
+                    for v in c.get(s, w) {
+                        bytes.extend_from_slice(&v.to_le_bytes());
+                    }
+                }
+                for w in 0..c.walkers() {
+                    bytes.extend_from_slice(&c.log_prob_at(s, w).to_le_bytes());
+                }
+            }
+            f.write_all(&bytes).map_err(|x| self.err(&p, x))?;
+            f.sync_data().map_err(|x| self.err(&p, x))?;
+        }
+        let tmp = self.dir.join("state.json.tmp");
+        let text = serde_json::to_string(state).expect("state serialises");
+        {
+            let mut f = File::create(&tmp).map_err(|x| self.err(&tmp, x))?;
+            f.write_all(text.as_bytes())
+                .map_err(|x| self.err(&tmp, x))?;
+            f.sync_data().map_err(|x| self.err(&tmp, x))?;
+        }
+        let path = self.dir.join("state.json");
+        std::fs::rename(&tmp, &path).map_err(|x| self.err(&path, x))
+    }
+}
+
+/// A fingerprint of everything that determines a run, so that a checkpoint
+/// is only resumed by the same run.
+fn fingerprint(
+    seed: u64,
+    settings: &SampleSettings,
+    names: &[String],
+    center: &[f64],
+    scale: &[f64],
+    extra: &str,
+) -> String {
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    let mut eat = |bytes: &[u8]| {
+        for b in bytes {
+            h ^= *b as u64;
+            h = h.wrapping_mul(0x0100_0000_01b3);
+        }
+    };
+    eat(&seed.to_le_bytes());
+    // The budget is left out: a run may be resumed with a larger one.
+    let s = settings;
+    eat(format!(
+        "{:?} {} {} {} {}",
+        s.walkers, s.ensembles, s.chunk, s.tau_multiple, s.burn_multiple
+    )
+    .as_bytes());
+    for n in names {
+        eat(n.as_bytes());
+    }
+    for v in center.iter().chain(scale) {
+        eat(&v.to_le_bytes());
+    }
+    eat(extra.as_bytes());
+    format!("{h:016x}")
+}
+
+/// Samples the posterior `density` from `center` (the MAP).
+///
+/// `scale` sets the starting ball (see [`conditional_scales`]); `checkpoint`
+/// is a folder to save to and resume from; `extra` joins the checkpoint's
+/// fingerprint (e.g. the model and the record's name).
+#[allow(clippy::too_many_arguments)]
+pub fn sample_posterior<D: LogDensity>(
+    density: &D,
+    names: &[String],
+    center: &[f64],
+    scale: &[f64],
+    settings: &SampleSettings,
+    seed: u64,
+    checkpoint: Option<&Path>,
+    extra: &str,
+    progress: &mut dyn FnMut(Progress),
+) -> Result<PosteriorSample, SampleError> {
+    let clock = Instant::now();
+    let dim = density.dim();
+    let walkers = settings.walkers_for(dim);
+    let fp = fingerprint(seed, settings, names, center, scale, extra);
+    let cp = checkpoint.map(|d| Checkpoint {
+        dir: d.to_path_buf(),
+    });
+    let restored = match &cp {
+        Some(cp) => cp.load(&fp, walkers, dim)?,
+        None => None,
+    };
+    let sampler = EnsembleSampler::new(StretchMove::default());
+    let (mut chains, mut ensembles, mut chunks) = match restored {
+        Some((state, chains)) if state.steps > 0 => {
+            let ensembles: Vec<Ensemble> = chains
+                .iter()
+                .map(|c| {
+                    let last = c.steps() - 1;
+                    Ensemble::from_parts(
+                        (0..walkers).map(|w| c.get(last, w).to_vec()).collect(),
+                        (0..walkers).map(|w| c.log_prob_at(last, w)).collect(),
+                    )
+                })
+                .collect();
+            (chains, ensembles, state.chunks)
+        }
+        _ => {
+            if let Some(cp) = &cp {
+                // A fresh run: old chain files are stale.
+                for e in 0..settings.ensembles {
+                    let _ = std::fs::remove_file(cp.chain_path(e));
+                }
+            }
+            let ensembles = (0..settings.ensembles)
+                .into_par_iter()
+                .map(|e| start(density, center, scale, walkers, seed, e))
+                .collect::<Result<Vec<_>, _>>()?;
+            (
+                vec![Chain::new(walkers, dim); settings.ensembles],
+                ensembles,
+                0,
+            )
+        }
+    };
+    // A resumed run needs the estimate of the last check it passed, as the
+    // uninterrupted run has it.
+    let mut tau_max = match last_check(chains[0].steps(), settings.chunk) {
+        Some(c) if c < chains[0].steps() => max_tau_range(&chains, c / 2, c),
+        _ => f64::NAN,
+    };
+    let mut converged = false;
+    loop {
+        let steps = chains[0].steps();
+        if is_check(steps, settings.chunk) {
+            tau_max = max_tau(&chains, steps / 2);
+            let burn = burn_in(tau_max, settings, steps);
+            if (steps - burn) as f64 >= settings.tau_multiple * tau_max {
+                converged = true;
+            }
+        }
+        let target = if tau_max.is_finite() {
+            ((settings.tau_multiple + settings.burn_multiple) * tau_max).ceil() as usize
+        } else {
+            settings.max_steps
+        };
+        progress(Progress {
+            steps,
+            max_steps: settings.max_steps,
+            tau_max,
+            target_steps: target.min(settings.max_steps),
+        });
+        if converged || steps >= settings.max_steps {
+            break;
+        }
+        let n = settings.chunk.min(settings.max_steps - steps);
+        let parts = ensembles
+            .par_iter_mut()
+            .enumerate()
+            .map(|(e, ens)| {
+                let mut rng = stream(seed, e, chunks);
+                sampler.run(ens, density, n, &mut rng)
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        for (c, p) in chains.iter_mut().zip(&parts) {
+            c.extend(p);
+        }
+        chunks += 1;
+        if let Some(cp) = &cp {
+            let state = State {
+                fingerprint: fp.clone(),
+                steps: chains[0].steps(),
+                chunks,
+                accepted: chains.iter().map(|c| c.accepted().to_vec()).collect(),
+            };
+            cp.save(&state, &chains, steps)?;
+        }
+    }
+    let steps = chains[0].steps();
+    let burn = burn_in(tau_max, settings, steps);
+    let tau = all_taus(&chains, burn);
+    let kept = (steps - burn) as f64 * walkers as f64;
+    let ess = (0..dim)
+        .map(|k| tau.iter().map(|t| kept / t[k]).sum())
+        .collect();
+    // R-hat on at most ~20,000 draws per ensemble (evenly thinned steps):
+    // ranks of a million draws per parameter would cost more than they
+    // tell, since consecutive steps are strongly correlated anyway.
+    let stride = ((steps - burn) * walkers / 20_000).max(1);
+    let rhat = (0..dim)
+        .into_par_iter()
+        .map(|k| {
+            let seqs: Vec<Vec<f64>> = chains
+                .iter()
+                .map(|c| {
+                    (burn..c.steps())
+                        .step_by(stride)
+                        .flat_map(|s| (0..walkers).map(move |w| (s, w)))
+                        .map(|(s, w)| c.get(s, w)[k])
+                        .collect()
+                })
+                .collect();
+            split_rhat(&seqs)
+        })
+        .collect();
+    Ok(PosteriorSample {
+        names: names.to_vec(),
+        acceptance: chains.iter().map(Chain::acceptance_fraction).collect(),
+        chains,
+        burn,
+        tau,
+        ess,
+        rhat,
+        converged,
+        evaluations: (steps * walkers * settings.ensembles) as u64,
+        wall_time: clock.elapsed().as_secs_f64(),
+    })
+}
+
+/// Checks fall at `c_0 = chunk`, `c_(i+1) = c_i + max(chunk, c_i/5)`
+/// (rounded to chunks): a function of the step count alone, so a resumed
+/// run checks where an uninterrupted one does.
+fn is_check(steps: usize, chunk: usize) -> bool {
+    let mut c = chunk;
+    while c < steps {
+        c += chunk.max((c / 5) / chunk * chunk);
+    }
+    c == steps
+}
+
+/// The last check at or before `steps`, if any.
+fn last_check(steps: usize, chunk: usize) -> Option<usize> {
+    let mut last = None;
+    let mut c = chunk;
+    while c <= steps {
+        last = Some(c);
+        c += chunk.max((c / 5) / chunk * chunk);
+    }
+    last
+}
+
+fn max_tau(chains: &[Chain], from: usize) -> f64 {
+    all_taus(chains, from)
+        .into_iter()
+        .flatten()
+        .fold(0.0, f64::max)
+}
+
+fn max_tau_range(chains: &[Chain], from: usize, to: usize) -> f64 {
+    chains
+        .par_iter()
+        .map(|c| {
+            (0..c.dim())
+                .into_par_iter()
+                .map(|k| integrated_time(&c.series_range(k, from, to), 5.0))
+                .collect::<Vec<f64>>()
+        })
+        .collect::<Vec<_>>()
+        .into_iter()
+        .flatten()
+        .fold(0.0, f64::max)
+}
+
+/// `tau[e][k]` of every ensemble and parameter, in parallel (each value is
+/// computed alone, so the result does not depend on the thread count).
+fn all_taus(chains: &[Chain], from: usize) -> Vec<Vec<f64>> {
+    chains
+        .par_iter()
+        .map(|c| {
+            (0..c.dim())
+                .into_par_iter()
+                .map(|k| integrated_time(&c.series(k, from), 5.0))
+                .collect()
+        })
+        .collect()
+}
+
+fn burn_in(tau_max: f64, settings: &SampleSettings, steps: usize) -> usize {
+    if tau_max.is_finite() {
+        ((settings.burn_multiple * tau_max).ceil() as usize).min(steps / 2)
+    } else {
+        steps / 2
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::inference::ensemble::FnDensity;
+
+    fn gaussian() -> FnDensity<impl Fn(&[f64]) -> f64 + Sync> {
+        FnDensity::new(3, |x: &[f64]| {
+            -0.5 * ((x[0] - 1.0).powi(2) / 0.04 + (x[1] + x[0]).powi(2) + x[2] * x[2] / 9.0)
+        })
+    }
+
+    fn names() -> Vec<String> {
+        ["a", "b", "c"].iter().map(|s| s.to_string()).collect()
+    }
+
+    #[test]
+    fn conditional_scales_of_a_gaussian() {
+        let s = conditional_scales(&gaussian(), &[1.0, -1.0, 0.0], &[10.0; 3]).unwrap();
+        // Conditional sds: 1/sqrt(precision_kk) = 1/sqrt(25 + 1), 1, 3.
+        assert!((s[0] - (1.0f64 / 26.0).sqrt()).abs() < 1e-6, "{s:?}");
+        assert!((s[1] - 1.0).abs() < 1e-6 && (s[2] - 3.0).abs() < 1e-6);
+    }
+
+    #[test]
+    fn converges_and_resumes_to_the_same_result() {
+        let d = gaussian();
+        let settings = SampleSettings::default().with_chunk(50).unwrap();
+        let run = |dir: Option<&Path>, max: usize| {
+            let s = settings.clone().with_max_steps(max).unwrap();
+            sample_posterior(
+                &d,
+                &names(),
+                &[1.0, -1.0, 0.0],
+                &[0.2, 1.0, 3.0],
+                &s,
+                9,
+                dir,
+                "",
+                &mut |_| {},
+            )
+            .unwrap()
+        };
+        let whole = run(None, 20_000);
+        assert!(whole.converged);
+        assert!(whole.rhat.iter().all(|r| *r < 1.01), "{:?}", whole.rhat);
+        let sum = whole.summaries();
+        assert!((sum[0].mean - 1.0).abs() < 0.01 && (sum[2].sd - 3.0).abs() < 0.1);
+        // Interrupted after 150 and 400 steps (budgets), then resumed.
+        let dir = tempfile::tempdir().unwrap();
+        let part = run(Some(dir.path()), 150);
+        assert_eq!(part.steps(), 150);
+        run(Some(dir.path()), 400);
+        let resumed = run(Some(dir.path()), 20_000);
+        assert_eq!(resumed.chains, whole.chains);
+        assert_eq!(resumed.burn, whole.burn);
+        assert_eq!(resumed.summaries(), whole.summaries());
+        assert_eq!(
+            (resumed.ess.clone(), resumed.rhat.clone()),
+            (whole.ess.clone(), whole.rhat.clone())
+        );
+        assert_eq!(resumed.evaluations, whole.evaluations);
+    }
+}

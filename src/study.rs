@@ -1,0 +1,360 @@
+//! One record, end to end: the MAP, the posterior, its summaries, the
+//! identifiability report and, given the released force and the static
+//! friction, the posterior of the physical quantities of Table 8.2.
+//!
+//! This is what `hbis fit` runs; library users get the same in one call.
+//!
+//! ```no_run
+//! use hbis::data::Record;
+//! use hbis::inference::Noise;
+//! use hbis::study::{fit_record, FitOptions};
+//!
+//! let data = Record::read("record.csv".as_ref())?.aligned(None)?;
+//! let spec = "trilinear+lcfm+viscous".parse()?;
+//! let fit = fit_record(spec, data, None, Noise::White, &FitOptions::default(), &mut |_| {})?;
+//! for (name, s) in fit.names().iter().zip(fit.summaries.as_ref().unwrap()) {
+//!     println!("{name}: {:.5} ± {:.5}", s.mean, s.sd);
+//! }
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+
+use std::path::PathBuf;
+
+use rand::rngs::StdRng;
+use rand::SeedableRng;
+use thiserror::Error;
+
+use crate::data::Aligned;
+use crate::inference::identifiability::{self, Identifiability, Segments};
+use crate::inference::summary::{covariance, ParamSummary};
+use crate::inference::{
+    conditional_scales, find_map, sample_posterior, MapError, MapEstimate, MapSettings, Noise,
+    Posterior, PosteriorError, PosteriorSample, PriorError, Priors, Progress, SampleError,
+    SampleSettings,
+};
+use crate::model::physical::Physical;
+use crate::model::{ModelSpec, Response, SimError};
+
+/// Why a study failed.
+#[derive(Debug, Error)]
+pub enum StudyError {
+    /// Priors.
+    #[error(transparent)]
+    Prior(#[from] PriorError),
+    /// The posterior.
+    #[error(transparent)]
+    Posterior(#[from] PosteriorError),
+    /// The MAP search.
+    #[error("MAP search")]
+    Map(#[from] MapError),
+    /// Posterior sampling.
+    #[error("posterior sampling")]
+    Sample(#[from] SampleError),
+    /// Simulating at the MAP.
+    #[error("simulation at the MAP")]
+    Sim(#[from] SimError),
+    /// Released force and static friction are inconsistent.
+    #[error("physical quantities")]
+    Physical(#[from] crate::model::physical::PhysicalError),
+}
+
+/// What to run.
+#[derive(Debug, Clone)]
+pub struct FitOptions {
+    /// Seed of every random number.
+    pub seed: u64,
+    /// The MAP search.
+    pub map: MapSettings,
+    /// The posterior run; `None` for the MAP only.
+    pub sample: Option<SampleSettings>,
+    /// Folder to checkpoint the posterior run in (and resume from).
+    pub checkpoint: Option<PathBuf>,
+    /// Released force `F0^n` and static friction `F_fS` (kN), for Table 8.2.
+    pub forces: Option<(f64, f64)>,
+    /// Text that identifies the record in the checkpoint's fingerprint.
+    pub label: String,
+}
+
+impl Default for FitOptions {
+    fn default() -> Self {
+        Self {
+            seed: 1,
+            map: MapSettings::default(),
+            sample: Some(SampleSettings::default()),
+            checkpoint: None,
+            forces: None,
+            label: String::new(),
+        }
+    }
+}
+
+/// A fitted record.
+#[derive(Debug, Clone)]
+pub struct Fit {
+    /// The posterior (model, record, priors, noise).
+    pub posterior: Posterior<ModelSpec>,
+    /// The MAP.
+    pub map: MapEstimate,
+    /// The posterior sample, if run.
+    pub sample: Option<PosteriorSample>,
+    /// Per-parameter summaries of the sample.
+    pub summaries: Option<Vec<ParamSummary>>,
+    /// Posterior covariance matrix.
+    pub covariance: Option<Vec<Vec<f64>>>,
+    /// The identifiability report.
+    pub identifiability: Option<Identifiability>,
+    /// Posterior of `m, k0, k1, k2, kF, c` (Table 8.2 units), if forces were given.
+    pub physical: Option<Vec<(String, ParamSummary)>>,
+    /// The physical quantities at the MAP, if forces were given.
+    pub physical_map: Option<Physical>,
+}
+
+impl Fit {
+    /// Parameter names.
+    pub fn names(&self) -> &[String] {
+        self.posterior.names()
+    }
+}
+
+/// Fits `data` with `spec`: MAP, then (if asked) the posterior and its
+/// reports. `priors = None` uses the defaults.
+pub fn fit_record(
+    spec: ModelSpec,
+    data: Aligned,
+    priors: Option<Priors>,
+    noise: Noise,
+    options: &FitOptions,
+    progress: &mut dyn FnMut(Progress),
+) -> Result<Fit, StudyError> {
+    let names = Posterior::names_for(&spec, noise);
+    let priors = match priors {
+        Some(p) => p,
+        None => Priors::defaults(&names)?,
+    };
+    let posterior = Posterior::new(spec, data, priors, noise)?;
+    let mut rng = StdRng::seed_from_u64(options.seed);
+    let map = find_map(&posterior, &options.map, &mut rng)?;
+    let physical_map = match options.forces {
+        Some((f, s)) => Some(Physical::from_params(
+            &spec,
+            &spec
+                .params_from_slice(&map.theta[..spec.param_names().len()])
+                .map_err(SimError::from)?,
+            f,
+            s,
+        )?),
+        None => None,
+    };
+    let mut fit = Fit {
+        posterior,
+        map,
+        sample: None,
+        summaries: None,
+        covariance: None,
+        identifiability: None,
+        physical: None,
+        physical_map,
+    };
+    let Some(settings) = &options.sample else {
+        return Ok(fit);
+    };
+    let (lo, hi) = fit.posterior.priors().box_bounds();
+    let range: Vec<f64> = lo.iter().zip(&hi).map(|(l, h)| h - l).collect();
+    let scale =
+        conditional_scales(&fit.posterior, &fit.map.theta, &range).map_err(SampleError::from)?;
+    let label = format!("{spec} {} {}", noise.as_str(), options.label);
+    let sample = sample_posterior(
+        &fit.posterior,
+        &names,
+        &fit.map.theta,
+        &scale,
+        settings,
+        options.seed,
+        options.checkpoint.as_deref(),
+        &label,
+        progress,
+    )?;
+    let draws = sample.draws();
+    let summaries: Vec<ParamSummary> = sample.summaries();
+    let cov = covariance(&draws);
+    let prior_sd: Vec<f64> = fit
+        .posterior
+        .priors()
+        .priors()
+        .iter()
+        .map(|p| p.sd())
+        .collect();
+    let effects = effects(&fit.posterior, &fit.map.theta, &summaries)?;
+    let sigma = (fit.map.eval.sse / fit.posterior.data().a.len() as f64).sqrt();
+    let segments = segments(&spec, &fit.map.theta, fit.posterior.data())?;
+    let ident = identifiability::report(
+        &names,
+        &summaries,
+        &cov,
+        &prior_sd,
+        &effects,
+        sigma,
+        Some(&segments),
+    );
+    if let Some((f, s)) = options.forces {
+        fit.physical = Some(physical_posterior(&spec, &sample, f, s)?);
+    }
+    fit.summaries = Some(summaries);
+    fit.covariance = Some(cov);
+    fit.identifiability = Some(ident);
+    fit.sample = Some(sample);
+    Ok(fit)
+}
+
+/// Change of the model acceleration for a one-sd change of each parameter
+/// (central differences at the MAP, kept inside the prior's support).
+fn effects(
+    posterior: &Posterior<ModelSpec>,
+    theta: &[f64],
+    summaries: &[ParamSummary],
+) -> Result<Vec<Vec<f64>>, StudyError> {
+    let (lo, hi) = posterior.priors().box_bounds();
+    let mut out = Vec::with_capacity(theta.len());
+    let n_model = posterior.model().param_names().len();
+    for k in 0..theta.len() {
+        if k >= n_model {
+            // Noise parameters do not move the model.
+            out.push(vec![0.0; posterior.data().a.len()]);
+            continue;
+        }
+        let h = summaries[k].sd;
+        let mut plus = theta.to_vec();
+        let mut minus = theta.to_vec();
+        plus[k] = (theta[k] + h).min(hi[k]);
+        minus[k] = (theta[k] - h).max(lo[k]);
+        let span = plus[k] - minus[k];
+        let (a, b) = (posterior.model_accel(&plus), posterior.model_accel(&minus));
+        match (a, b) {
+            (Ok(a), Ok(b)) if span > 0.0 => {
+                out.push(a.iter().zip(&b).map(|(x, y)| (x - y) * h / span).collect())
+            }
+            _ => out.push(vec![0.0; posterior.data().a.len()]),
+        }
+    }
+    Ok(out)
+}
+
+/// Phase, half-cycle and closeness to reversals of each sample at the MAP.
+pub fn segments(spec: &ModelSpec, theta: &[f64], data: &Aligned) -> Result<Segments, StudyError> {
+    let n_model = spec.param_names().len();
+    let p = spec
+        .params_from_slice(&theta[..n_model])
+        .map_err(SimError::from)?;
+    let duration = data.duration();
+    let r = Response::simulate(spec, &p, duration)?;
+    let samples = r.sample_grid(data.dt)?;
+    let n = data.a.len().min(samples.len());
+    let mut half_cycle = vec![0usize; n];
+    let mut reversal_at = Vec::new();
+    let mut hc = 0;
+    for i in 0..n {
+        if i > 0 && samples[i - 1].v * samples[i].v < 0.0 {
+            hc += 1;
+            reversal_at.push(i);
+        }
+        half_cycle[i] = hc;
+    }
+    let mut near = vec![false; n];
+    for &i in &reversal_at {
+        for flag in &mut near[i.saturating_sub(2)..(i + 2).min(n)] {
+            *flag = true;
+        }
+    }
+    // The release is a reversal too (the mass starts at rest).
+    for flag in near.iter_mut().take(2) {
+        *flag = true;
+    }
+    let mut amplitude = vec![0.0f64; hc + 1];
+    for i in 0..n {
+        amplitude[half_cycle[i]] = amplitude[half_cycle[i]].max(samples[i].u.abs());
+    }
+    Ok(Segments {
+        phase: samples[..n]
+            .iter()
+            .map(|s| s.phase.as_str().to_string())
+            .collect(),
+        half_cycle,
+        near_reversal: near,
+        amplitude,
+    })
+}
+
+/// Table 8.2 quantities for (a thinned set of) posterior draws.
+fn physical_posterior(
+    spec: &ModelSpec,
+    sample: &PosteriorSample,
+    released: f64,
+    friction: f64,
+) -> Result<Vec<(String, ParamSummary)>, StudyError> {
+    let n_model = spec.param_names().len();
+    let points = sample.points();
+    let stride = (points.len() / 20_000).max(1);
+    let mut cols: Vec<Vec<f64>> = vec![Vec::new(); 6];
+    for x in points.iter().step_by(stride) {
+        let p = spec
+            .params_from_slice(&x[..n_model])
+            .map_err(SimError::from)?;
+        let q = Physical::from_params(spec, &p, released, friction)?;
+        for (c, v) in cols.iter_mut().zip([q.m, q.k0, q.k1, q.k2, q.kf, q.c]) {
+            c.push(v);
+        }
+    }
+    Ok(["m", "k0", "k1", "k2", "kF", "c"]
+        .iter()
+        .zip(cols)
+        .map(|(n, c)| (n.to_string(), ParamSummary::from_draws(&c)))
+        .collect())
+}
+
+/// Lower and upper edges of a band, one value per sample.
+pub type Band = (Vec<f64>, Vec<f64>);
+
+/// The 90 % posterior-predictive band of the record: for up to `draws`
+/// posterior points (evenly spaced through the kept draws), the model's
+/// acceleration plus Gaussian noise of that point's residual level
+/// `sqrt(sse/n)`; the 5 % and 95 % quantiles at each sample. Seeded.
+pub fn predictive_band(fit: &Fit, draws: usize, seed: u64) -> Result<Option<Band>, StudyError> {
+    use rand_distr::{Distribution, StandardNormal};
+    let Some(sample) = &fit.sample else {
+        return Ok(None);
+    };
+    let points = sample.points();
+    let stride = (points.len() / draws.max(1)).max(1);
+    let n = fit.posterior.data().a.len();
+    let mut rng = StdRng::seed_from_u64(seed ^ 0x5EED_BA4D_0000_0001);
+    let mut sims: Vec<Vec<f64>> = Vec::new();
+    for x in points.iter().step_by(stride).take(draws) {
+        let a = fit.posterior.model_accel(x)?;
+        let sse: f64 = a
+            .iter()
+            .zip(&fit.posterior.data().a)
+            .map(|(m, d)| (d - m).powi(2))
+            .sum();
+        let sigma = (sse / n as f64).sqrt();
+        sims.push(
+            a.iter()
+                .map(|m| {
+                    let z: f64 = StandardNormal.sample(&mut rng);
+                    m + sigma * z
+                })
+                .collect(),
+        );
+    }
+    let mut lo = Vec::with_capacity(n);
+    let mut hi = Vec::with_capacity(n);
+    let mut col = vec![0.0; sims.len()];
+    for i in 0..n {
+        for (c, s) in col.iter_mut().zip(&sims) {
+            *c = s[i];
+        }
+        col.sort_unstable_by(f64::total_cmp);
+        lo.push(crate::inference::summary::quantile(&col, 0.05));
+        hi.push(crate::inference::summary::quantile(&col, 0.95));
+    }
+    Ok(Some((lo, hi)))
+}
