@@ -60,6 +60,7 @@ pub struct MapSettings {
     max_generations: usize,
     parallel: bool,
     polish: Option<Polish>,
+    initial: Option<Vec<f64>>,
 }
 
 impl Default for MapSettings {
@@ -73,6 +74,7 @@ impl Default for MapSettings {
             max_generations: 1000,
             parallel: true,
             polish: Some(Polish::default()),
+            initial: None,
         }
     }
 }
@@ -126,6 +128,22 @@ impl MapSettings {
     /// depend on it).
     pub fn with_parallel(mut self, parallel: bool) -> Result<Self, MapError> {
         self.parallel = parallel;
+        Ok(self)
+    }
+
+    /// Start the first CMA-ES run from this point (e.g. the MAP of a nested
+    /// model) instead of a uniform draw; later runs draw as usual.
+    pub fn with_initial(mut self, theta: Option<Vec<f64>>) -> Result<Self, MapError> {
+        if theta
+            .as_ref()
+            .is_some_and(|t| t.iter().any(|v| !v.is_finite()))
+        {
+            return Err(MapError::Setting {
+                name: "initial",
+                reason: "must be finite",
+            });
+        }
+        self.initial = theta;
         Ok(self)
     }
 
@@ -213,6 +231,18 @@ where
             })
             .collect()
     };
+    let to_unit = |theta: &[f64]| -> Vec<f64> {
+        (0..d)
+            .map(|i| {
+                let t = theta[i].clamp(lo[i], hi[i]);
+                if log_scale[i] {
+                    (t / lo[i]).ln() / (hi[i] / lo[i]).ln()
+                } else {
+                    (t - lo[i]) / (hi[i] - lo[i])
+                }
+            })
+            .collect()
+    };
     let objective = |u: &[f64]| match posterior.log_posterior(&to_theta(u)) {
         Ok(lp) => -lp,
         Err(_) => f64::NAN,
@@ -249,6 +279,10 @@ where
         } else {
             (base << large_runs.min(20), 0.3)
         };
+        let warm = settings.initial.is_some() && runs.is_empty();
+        // A warm start is already near an optimum: a small step keeps the
+        // first run in its basin.
+        let sigma0 = if warm { 0.02 } else { sigma0 };
         let cmaes = Cmaes::new(sigma0)?
             .with_bounds(unit.clone())?
             .with_popsize(popsize)?
@@ -256,8 +290,21 @@ where
             .with_tol_fun(settings.tol_fun)?
             .with_max_generations(settings.max_generations)?
             .with_parallel(settings.parallel)?;
+        let first = match (&settings.initial, warm) {
+            (Some(theta), true) if theta.len() == d => {
+                // The start itself is a candidate: CMA-ES never evaluates its mean.
+                let u = to_unit(theta);
+                let f = objective(&u);
+                if f < best_f {
+                    best_f = f;
+                    best_u = u.clone();
+                }
+                Some(Start::Point(u))
+            }
+            _ => None,
+        };
         let result = cmaes
-            .minimize(objective, &start, rng)
+            .minimize(objective, first.as_ref().unwrap_or(&start), rng)
             .map_err(|e| match e {
                 CmaesError::NaN { x } => MapError::Posterior(PosteriorError::NaN {
                     theta: to_theta(&x),

@@ -354,6 +354,11 @@ impl Priors {
         Self::parse(names, &text, toml)
     }
 
+    /// Priors from names and priors of equal length.
+    pub fn from_parts(names: Vec<String>, priors: Vec<Prior>) -> Option<Self> {
+        (names.len() == priors.len()).then_some(Self { names, priors })
+    }
+
     /// Parameter names in order.
     pub fn names(&self) -> &[String] {
         &self.names
