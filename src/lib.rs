@@ -27,6 +27,7 @@
 //! Per-unit-mass parameters (SI units) are named as in the paper:
 //! `u0, uy, uF0, rF0, zeta0, f0, f1, f2, u3` (see [`model::ParamName`]).
 
+pub mod criticism;
 pub mod data;
 pub mod inference;
 pub mod model;

@@ -68,6 +68,50 @@ pub fn run(a: Args) -> Result<()> {
         writeln!(out, "wrote {}", fig.display())?;
     }
     identify(&mut out, &a.out)?;
+    criticize(&mut out, &a.out)?;
+    Ok(())
+}
+
+/// Model criticism: a record made by the full model from Test 8 (the test
+/// with the steepest friction slope), fitted from `bilinear+coulomb`, and the
+/// ladder that finds what is missing.
+fn criticize(out: &mut impl Write, dir: &Path) -> Result<()> {
+    let spec = ModelSpec::FULL;
+    let truth = Params::table_8_1(8)
+        .context("Table 8.1 has Test 8")?
+        .to_theta(&spec);
+    let mut rng = StdRng::seed_from_u64(SEED + 8);
+    let syn = synthesize(&spec, &truth, DT, grid_len(DT, DURATION), 0.015, &mut rng)?;
+    let path = dir.join("record-hidden.csv");
+    std::fs::write(&path, syn.record.to_csv())
+        .with_context(|| format!("cannot write {}", path.display()))?;
+    writeln!(
+        out,
+        "\nModel criticism: a record with effects hidden from the starting model (made by {spec} from Test 8, \
+         1.5 % noise, noise floor e2 = {:.5}), written to {}; start from bilinear+coulomb:",
+        syn.noise_floor,
+        path.display()
+    )?;
+    let data = syn.record.aligned(None)?;
+    let start = hbis::criticism::Composite::parse("bilinear+coulomb")?;
+    let steps = super::criticize::ladder_steps(start, &data, SEED)?;
+    super::criticize::print_ladder(out, &steps)?;
+    let ladder_dir = dir.join("ladder");
+    super::criticize::write_ladder(
+        &ladder_dir,
+        "bilinear+coulomb",
+        SEED,
+        &path.display().to_string(),
+        &steps,
+        &data,
+    )?;
+    writeln!(
+        out,
+        "wrote {} and step-<k>.png, ladder.png beside it (same as: hbis ladder --data {} --model bilinear+coulomb --seed {SEED} --out {})",
+        ladder_dir.join("ladder.json").display(),
+        path.display(),
+        ladder_dir.display()
+    )?;
     Ok(())
 }
 

@@ -2,6 +2,7 @@
 //! cause chain on one line; bad input exits with code 2.
 
 mod convert;
+mod criticize;
 mod demo;
 mod fit;
 mod inputs;
@@ -28,6 +29,10 @@ enum Command {
     Convert(convert::Args),
     /// Find the MAP of a model for a measured acceleration record.
     Fit(fit::Args),
+    /// Where a fitted model fails and which catalog effect is missing.
+    Diagnose(criticize::Args),
+    /// Add the best supported effect, refit, repeat until none is supported.
+    Ladder(criticize::Args),
     /// Run the built-in demonstration on the Solarino Test 5 parameters.
     Demo(demo::Args),
 }
@@ -40,6 +45,8 @@ pub fn main() -> ExitCode {
         Command::Simulate(a) => simulate::run(a),
         Command::Convert(a) => convert::run(a),
         Command::Fit(a) => fit::run(a),
+        Command::Diagnose(a) => criticize::diagnose(a),
+        Command::Ladder(a) => criticize::run_ladder(a),
         Command::Demo(a) => demo::run(a),
     };
     match result {

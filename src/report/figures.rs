@@ -592,6 +592,88 @@ fn draw_traces<DB: DrawingBackend>(
     root.present().map_err(e)
 }
 
+/// The ladder: `e2` and the log-evidence at each step.
+pub fn ladder_figure(
+    path: &Path,
+    models: &[String],
+    e2: &[f64],
+    log_evidence: &[f64],
+) -> Result<(), FigureError> {
+    let ext = checked_extension(path)?;
+    let size = (1400, 800);
+    let result = if ext == "png" {
+        draw_ladder(
+            BitMapBackend::new(path, size).into_drawing_area(),
+            models,
+            e2,
+            log_evidence,
+        )
+    } else {
+        draw_ladder(
+            SVGBackend::new(path, size).into_drawing_area(),
+            models,
+            e2,
+            log_evidence,
+        )
+    };
+    result.map_err(|message| FigureError::Draw {
+        path: path.to_path_buf(),
+        message,
+    })
+}
+
+fn draw_ladder<DB: DrawingBackend>(
+    root: DrawingArea<DB, Shift>,
+    models: &[String],
+    e2: &[f64],
+    log_evidence: &[f64],
+) -> Result<(), String> {
+    let e = |x: DrawingAreaErrorKind<DB::ErrorType>| x.to_string();
+    root.fill(&WHITE).map_err(e)?;
+    let root = root
+        .titled("The ladder: adding the best supported effect", (FONT, 26))
+        .map_err(e)?;
+    let (a, b) = root.split_vertically(root.dim_in_pixel().1 / 2);
+    let steps: Vec<(f64, f64)> = e2.iter().enumerate().map(|(k, v)| (k as f64, *v)).collect();
+    let z: Vec<(f64, f64)> = log_evidence
+        .iter()
+        .enumerate()
+        .map(|(k, v)| (k as f64, *v))
+        .collect();
+    let label = |k: usize| models.get(k).cloned().unwrap_or_default();
+    for (area, pts, name) in [(&a, &steps, "e2"), (&b, &z, "log-evidence")] {
+        let ys = range(pts.iter().map(|p| p.1));
+        let mut chart = ChartBuilder::on(area)
+            .margin(20)
+            .x_label_area_size(40)
+            .y_label_area_size(90)
+            .build_cartesian_2d(-0.3..(pts.len() as f64 - 0.7).max(0.3), ys)
+            .map_err(e)?;
+        chart
+            .configure_mesh()
+            .x_labels(pts.len().max(1))
+            .x_label_formatter(&|x| label(x.round() as usize))
+            .y_desc(name)
+            .label_style((FONT, 14))
+            .axis_desc_style((FONT, 16))
+            .draw()
+            .map_err(e)?;
+        chart
+            .draw_series(LineSeries::new(
+                pts.iter().copied(),
+                RGBColor(214, 39, 40).stroke_width(3),
+            ))
+            .map_err(e)?;
+        chart
+            .draw_series(
+                pts.iter()
+                    .map(|p| Circle::new(*p, 6, RGBColor(214, 39, 40).filled())),
+            )
+            .map_err(e)?;
+    }
+    root.present().map_err(e)
+}
+
 /// The lowercase extension (`png` or `svg`), with the font registered.
 fn checked_extension(path: &Path) -> Result<String, FigureError> {
     let ext = path

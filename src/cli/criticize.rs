@@ -1,0 +1,294 @@
+//! `hbis diagnose` and `hbis ladder`: where the model fails and which
+//! physical effect is missing.
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, Result};
+use hbis::criticism::{
+    diagnosis_of, fit_model, ladder, rank_candidates, Composite, Diagnostics, ModelFit,
+    RankedCandidate, Step,
+};
+use hbis::data::{Aligned, Record};
+use hbis::inference::MapSettings;
+use hbis::model::ForwardModel;
+use serde::Serialize;
+
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// Record: CSV with columns `t` (s) and `a` (m/s^2), or whitespace-separated text.
+    #[arg(long)]
+    data: PathBuf,
+    /// Starting model, e.g. `bilinear+coulomb` (catalog output effects such as `+offset` allowed).
+    #[arg(long)]
+    model: String,
+    /// Seed of every random number.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Output folder.
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Also print the JSON report to standard output.
+    #[arg(long)]
+    json: bool,
+    /// Release time in the record's clock (s); default: detected.
+    #[arg(long, allow_negative_numbers = true)]
+    t0: Option<f64>,
+}
+
+fn load(a: &Args) -> Result<(Composite, Aligned)> {
+    let model = Composite::parse(&a.model).with_context(|| format!("--model `{}`", a.model))?;
+    let record =
+        Record::read(&a.data).with_context(|| format!("in record {}", a.data.display()))?;
+    let data = record
+        .aligned(a.t0)
+        .with_context(|| format!("in record {}", a.data.display()))?;
+    Ok((model, data))
+}
+
+/// `diagnosis.json`.
+#[derive(Debug, Serialize)]
+struct DiagnosisReport<'a> {
+    hbis_version: &'a str,
+    model: String,
+    seed: u64,
+    data: String,
+    e2: f64,
+    bic: f64,
+    log_evidence: f64,
+    map: std::collections::BTreeMap<String, f64>,
+    candidates: &'a [RankedCandidate],
+    residual: &'a Diagnostics,
+    verdict: &'a str,
+}
+
+pub fn diagnose(a: Args) -> Result<()> {
+    let (model, data) = load(&a)?;
+    let out = a
+        .out
+        .clone()
+        .unwrap_or_else(|| PathBuf::from("hbis-diagnose"));
+    let settings = MapSettings::default();
+    let fit = fit_model(&model, &data, None, &settings, a.seed).context("fit")?;
+    let diagnosis = diagnosis_of(&model, &fit, &data)?;
+    let ranked = rank_candidates(&model, &fit, &data, &settings, a.seed.wrapping_add(1))
+        .context("candidates")?;
+    std::fs::create_dir_all(&out)
+        .with_context(|| format!("cannot create folder {}", out.display()))?;
+    let report = DiagnosisReport {
+        hbis_version: env!("CARGO_PKG_VERSION"),
+        model: model.name(),
+        seed: a.seed,
+        data: a.data.display().to_string(),
+        e2: fit.e2,
+        bic: fit.bic,
+        log_evidence: fit.log_evidence,
+        map: fit
+            .names
+            .iter()
+            .cloned()
+            .zip(fit.theta.iter().copied())
+            .collect(),
+        candidates: &ranked,
+        residual: &diagnosis,
+        verdict: &diagnosis.verdict,
+    };
+    let text = serde_json::to_string_pretty(&report)? + "\n";
+    let path = out.join("diagnosis.json");
+    std::fs::write(&path, &text).with_context(|| format!("cannot write {}", path.display()))?;
+    residual_figure(&out.join("residual.png"), &model, &fit, &data)?;
+    let mut err = std::io::stderr().lock();
+    print_diagnosis(&mut err, &model.name(), &fit, &diagnosis, &ranked)?;
+    writeln!(err, "wrote {}", path.display())?;
+    if a.json {
+        print!("{text}");
+    }
+    Ok(())
+}
+
+/// `ladder.json`.
+#[derive(Debug, Serialize)]
+struct LadderReport<'a> {
+    hbis_version: &'a str,
+    model: String,
+    seed: u64,
+    data: String,
+    final_model: String,
+    steps: Vec<LadderStep<'a>>,
+}
+
+#[derive(Debug, Serialize)]
+struct LadderStep<'a> {
+    model: &'a str,
+    added: Option<&'a str>,
+    e2: f64,
+    bic: f64,
+    log_evidence: f64,
+    verdict: &'a str,
+    candidates: &'a [RankedCandidate],
+}
+
+pub fn run_ladder(a: Args) -> Result<()> {
+    let (model, data) = load(&a)?;
+    let out = a
+        .out
+        .clone()
+        .unwrap_or_else(|| PathBuf::from("hbis-ladder"));
+    let start = model.name();
+    let steps = ladder_steps(model, &data, a.seed)?;
+    let mut err = std::io::stderr().lock();
+    print_ladder(&mut err, &steps)?;
+    let text = write_ladder(
+        &out,
+        &start,
+        a.seed,
+        &a.data.display().to_string(),
+        &steps,
+        &data,
+    )?;
+    writeln!(err, "wrote {}", out.join("ladder.json").display())?;
+    if a.json {
+        print!("{text}");
+    }
+    Ok(())
+}
+
+/// Runs the ladder (at most four effects are added: the catalog's size).
+pub fn ladder_steps(model: Composite, data: &Aligned, seed: u64) -> Result<Vec<Step>> {
+    ladder(model, data, &MapSettings::default(), seed, 4).context("ladder")
+}
+
+/// Writes ladder.json, ladder.png and one residual figure per step.
+pub fn write_ladder(
+    out: &Path,
+    start: &str,
+    seed: u64,
+    source: &str,
+    steps: &[Step],
+    data: &Aligned,
+) -> Result<String> {
+    std::fs::create_dir_all(out)
+        .with_context(|| format!("cannot create folder {}", out.display()))?;
+    let report = LadderReport {
+        hbis_version: env!("CARGO_PKG_VERSION"),
+        model: start.to_string(),
+        seed,
+        data: source.to_string(),
+        final_model: steps.last().map_or(String::new(), |s| s.model.clone()),
+        steps: steps
+            .iter()
+            .map(|s| LadderStep {
+                model: &s.model,
+                added: s.added.as_deref(),
+                e2: s.e2,
+                bic: s.bic,
+                log_evidence: s.log_evidence,
+                verdict: &s.diagnosis.verdict,
+                candidates: &s.candidates,
+            })
+            .collect(),
+    };
+    let text = serde_json::to_string_pretty(&report)? + "\n";
+    let path = out.join("ladder.json");
+    std::fs::write(&path, &text).with_context(|| format!("cannot write {}", path.display()))?;
+    for (k, s) in steps.iter().enumerate() {
+        let model = Composite::parse(&s.model)?;
+        residual_figure(&out.join(format!("step-{k}.png")), &model, &s.fit, data)?;
+    }
+    #[cfg(feature = "figures")]
+    {
+        let labels: Vec<String> = steps.iter().map(|s| s.model.clone()).collect();
+        let e2: Vec<f64> = steps.iter().map(|s| s.e2).collect();
+        let z: Vec<f64> = steps.iter().map(|s| s.log_evidence).collect();
+        hbis::report::figures::ladder_figure(&out.join("ladder.png"), &labels, &e2, &z)?;
+    }
+    Ok(text)
+}
+
+fn residual_figure(path: &Path, model: &Composite, fit: &ModelFit, data: &Aligned) -> Result<()> {
+    #[cfg(feature = "figures")]
+    {
+        let mut accel = vec![0.0; data.a.len()];
+        model.accel_into(&fit.theta, data.dt, &mut accel)?;
+        let t: Vec<f64> = (0..accel.len())
+            .map(|i| data.t0 + i as f64 * data.dt)
+            .collect();
+        hbis::report::figures::fit_figure(
+            path,
+            &t,
+            &data.a,
+            &accel,
+            None,
+            &format!("{}: e2 = {:.5}", model.name(), fit.e2),
+        )?;
+    }
+    #[cfg(not(feature = "figures"))]
+    let _ = (path, model, fit, data);
+    Ok(())
+}
+
+pub fn print_diagnosis(
+    out: &mut impl Write,
+    model: &str,
+    fit: &ModelFit,
+    d: &Diagnostics,
+    ranked: &[RankedCandidate],
+) -> Result<()> {
+    writeln!(out, "{model}: e2 = {:.5}, BIC = {:.1}", fit.e2, fit.bic)?;
+    writeln!(out, "  residual by phase:")?;
+    for g in &d.by_phase {
+        writeln!(
+            out,
+            "    {:9} {:>5} samples  RMS {:.2e}  mean {:+.2e}",
+            g.group, g.samples, g.rms, g.mean
+        )?;
+    }
+    writeln!(
+        out,
+        "  dominant residual frequency {:.2} Hz (model can produce it: {})",
+        d.dominant_frequency_hz, d.spectrum.model_can_produce
+    )?;
+    writeln!(out, "  verdict: {}", d.verdict)?;
+    writeln!(out, "  candidates, best first:")?;
+    for c in ranked {
+        writeln!(
+            out,
+            "    {:10} e2 {:.5}  dBIC {:>9.1}  dlogL {:>8.1}  dlogZ {:>8.1}  score {:>8.1}  {}",
+            c.effect,
+            c.e2,
+            c.delta_bic,
+            c.delta_log_likelihood,
+            c.delta_log_evidence,
+            c.score,
+            if c.supported {
+                "supported"
+            } else {
+                "unsupported"
+            }
+        )?;
+    }
+    Ok(())
+}
+
+pub fn print_ladder(out: &mut impl Write, steps: &[Step]) -> Result<()> {
+    writeln!(
+        out,
+        "{:>4}  {:32} {:>10} {:>9} {:>12} {:>12}",
+        "step", "model", "added", "e2", "BIC", "log-evidence"
+    )?;
+    for (k, s) in steps.iter().enumerate() {
+        writeln!(
+            out,
+            "{k:>4}  {:32} {:>10} {:>9.5} {:>12.1} {:>12.1}",
+            s.model,
+            s.added.as_deref().unwrap_or("-"),
+            s.e2,
+            s.bic,
+            s.log_evidence
+        )?;
+    }
+    if let Some(last) = steps.last() {
+        writeln!(out, "final verdict: {}", last.diagnosis.verdict)?;
+    }
+    Ok(())
+}

@@ -1,0 +1,139 @@
+//! `hbis diagnose` and `hbis ladder` through the real binary: the documented
+//! keys, and errors that exit 2.
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+use hbis::data::synthesize;
+use hbis::model::{ModelSpec, Params};
+use rand::{rngs::StdRng, SeedableRng};
+
+fn hbis(dir: &Path, args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_hbis"))
+        .current_dir(dir)
+        .args(args)
+        .output()
+        .expect("runs")
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// A Test 7 record of the full model (1.5 % noise).
+fn record(dir: &Path) {
+    let spec = ModelSpec::FULL;
+    let truth = Params::table_8_1(7).unwrap().to_theta(&spec);
+    let mut rng = StdRng::seed_from_u64(77);
+    let syn = synthesize(&spec, &truth, 0.005, 2001, 0.015, &mut rng).unwrap();
+    std::fs::write(dir.join("rec.csv"), syn.record.to_csv()).unwrap();
+}
+
+#[test]
+fn diagnose_writes_the_documented_keys() {
+    let d = tempfile::tempdir().unwrap();
+    record(d.path());
+    let o = hbis(
+        d.path(),
+        &[
+            "diagnose",
+            "--data",
+            "rec.csv",
+            "--model",
+            "trilinear+lcfm",
+            "--out",
+            "dx",
+            "--json",
+        ],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let file: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(d.path().join("dx/diagnosis.json")).unwrap())
+            .unwrap();
+    assert_eq!(v, file);
+    assert_eq!(v["model"], "trilinear+lcfm");
+    assert!(v["e2"].is_f64() && v["verdict"].is_string());
+    assert!(v["residual"]["dominant_frequency_hz"].is_f64());
+    let c = v["candidates"].as_array().unwrap();
+    assert_eq!(c[0]["effect"], "viscous", "{c:?}");
+    for k in [
+        "effect",
+        "model",
+        "e2",
+        "delta_bic",
+        "delta_log_likelihood",
+        "delta_log_evidence",
+        "score",
+        "supported",
+    ] {
+        assert!(c[0].get(k).is_some(), "candidate lacks `{k}`");
+    }
+    assert_eq!(c[0]["model"], "trilinear+lcfm+viscous");
+    #[cfg(feature = "figures")]
+    assert!(d.path().join("dx/residual.png").exists());
+}
+
+#[test]
+fn ladder_writes_its_steps() {
+    let d = tempfile::tempdir().unwrap();
+    record(d.path());
+    let o = hbis(
+        d.path(),
+        &[
+            "ladder",
+            "--data",
+            "rec.csv",
+            "--model",
+            "trilinear+lcfm",
+            "--out",
+            "lx",
+            "--json",
+        ],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let steps = v["steps"].as_array().unwrap();
+    assert_eq!(steps[0]["model"], "trilinear+lcfm");
+    assert!(steps[0]["added"].is_null());
+    assert_eq!(steps[1]["added"], "viscous");
+    assert_eq!(v["final_model"], "trilinear+lcfm+viscous");
+    for s in steps {
+        for k in ["model", "added", "e2", "bic"] {
+            assert!(s.get(k).is_some(), "step lacks `{k}`");
+        }
+    }
+    #[cfg(feature = "figures")]
+    for f in ["ladder.png", "step-0.png", "step-1.png"] {
+        assert!(d.path().join("lx").join(f).exists(), "{f}");
+    }
+}
+
+#[test]
+fn bad_models_and_records_exit_2() {
+    let d = tempfile::tempdir().unwrap();
+    record(d.path());
+    let o = hbis(
+        d.path(),
+        &[
+            "diagnose",
+            "--data",
+            "rec.csv",
+            "--model",
+            "trilinear+magic",
+        ],
+    );
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        stderr(&o).contains("--model `trilinear+magic`"),
+        "{}",
+        stderr(&o)
+    );
+    std::fs::write(d.path().join("bad.csv"), "t,a\n0,1\n0.005,oops\n").unwrap();
+    let o = hbis(
+        d.path(),
+        &["ladder", "--data", "bad.csv", "--model", "bilinear"],
+    );
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("row 3, column `a`"), "{}", stderr(&o));
+}

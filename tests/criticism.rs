@@ -1,0 +1,137 @@
+//! Model criticism on synthetic records with a hidden effect: the hidden
+//! effect is ranked first and, once added, brings `e2` within 15 % of the
+//! record's noise floor; the ladder from `bilinear+coulomb` recovers the
+//! model that made the record with `e2` falling at every step; an effect
+//! outside the catalog (a superstructure mode) gets a verdict naming an
+//! unmodelled oscillation at its frequency.
+
+use std::sync::Arc;
+
+use hbis::criticism::{
+    diagnosis_of, fit_model, ladder, rank_candidates, Composite, Effect, Offset,
+};
+use hbis::data::{synthesize, Aligned};
+use hbis::inference::MapSettings;
+use hbis::model::{ForwardModel, ModelSpec, Params};
+use rand::{rngs::StdRng, SeedableRng};
+
+#[allow(dead_code)]
+#[path = "../examples/custom_effect.rs"]
+mod custom_effect;
+
+/// A record from `model` at `truth` with 1.5 % noise, and its noise floor
+/// (the `e2` of the truth on it).
+fn record(model: &Composite, truth: &[f64], seed: u64) -> (Aligned, f64) {
+    let mut rng = StdRng::seed_from_u64(seed);
+    let data = synthesize(model, truth, 0.005, 2001, 0.015, &mut rng)
+        .unwrap()
+        .record
+        .aligned(None)
+        .unwrap();
+    let mut a = vec![0.0; data.a.len()];
+    model.accel_into(truth, data.dt, &mut a).unwrap();
+    let floor = data
+        .a
+        .iter()
+        .zip(&a)
+        .map(|(x, m)| (x - m).powi(2))
+        .sum::<f64>()
+        / data.energy();
+    (data, floor)
+}
+
+fn hidden(effect: &str, start: &str, test: u32, offset: Option<f64>) {
+    let spec = ModelSpec::FULL;
+    let mut truth = Params::table_8_1(test).unwrap().to_theta(&spec);
+    let effects: Vec<Arc<dyn Effect>> = match offset {
+        Some(a) => {
+            truth.push(a);
+            vec![Arc::new(Offset)]
+        }
+        None => vec![],
+    };
+    let (data, floor) = record(&Composite::new(spec, effects), &truth, 40 + test as u64);
+    let model = Composite::new(start.parse().unwrap(), vec![]);
+    let settings = MapSettings::default();
+    let fit = fit_model(&model, &data, None, &settings, 1).unwrap();
+    let ranked = rank_candidates(&model, &fit, &data, &settings, 2).unwrap();
+    let names: Vec<&str> = ranked.iter().map(|c| c.effect.as_str()).collect();
+    assert_eq!(names[0], effect, "ranking {names:?}");
+    assert!(ranked[0].supported);
+    assert!(
+        ranked[0].e2 <= 1.15 * floor,
+        "e2 {} vs floor {floor}",
+        ranked[0].e2
+    );
+    assert!(
+        fit.e2 > 1.15 * floor,
+        "the starting model already fits: e2 {} vs {floor}",
+        fit.e2
+    );
+}
+
+#[test]
+fn hidden_trilinear_branch_is_found() {
+    hidden("trilinear", "bilinear+lcfm+viscous", 3, None);
+}
+
+#[test]
+fn hidden_amplitude_dependent_friction_is_found() {
+    // Test 8 has the largest friction slope of Table 8.1 (rF0 = -0.029).
+    hidden("lcfm", "trilinear+coulomb+viscous", 8, None);
+}
+
+#[test]
+fn hidden_viscous_damping_is_found() {
+    hidden("viscous", "trilinear+lcfm", 7, None);
+}
+
+#[test]
+fn hidden_accelerometer_offset_is_found() {
+    hidden("offset", "trilinear+lcfm+viscous", 5, Some(0.02));
+}
+
+#[test]
+fn ladder_from_bilinear_coulomb_recovers_the_full_model() {
+    let spec = ModelSpec::FULL;
+    let truth = Params::table_8_1(8).unwrap().to_theta(&spec);
+    let (data, floor) = record(&Composite::new(spec, vec![]), &truth, 4);
+    let start = Composite::new("bilinear+coulomb".parse().unwrap(), vec![]);
+    let steps = ladder(start, &data, &MapSettings::default(), 1, 6).unwrap();
+    let last = steps.last().unwrap();
+    assert_eq!(
+        last.model,
+        "trilinear+lcfm+viscous",
+        "{:?}",
+        steps.iter().map(|s| &s.model).collect::<Vec<_>>()
+    );
+    for w in steps.windows(2) {
+        assert!(w[1].e2 < w[0].e2, "e2 rose from {} to {}", w[0].e2, w[1].e2);
+        assert!(w[1].bic < w[0].bic);
+    }
+    assert!(last.e2 <= 1.15 * floor);
+    assert!(last.candidates.iter().all(|c| !c.supported));
+}
+
+#[test]
+fn an_unmodelled_superstructure_mode_is_named_with_its_frequency() {
+    let spec = ModelSpec::FULL;
+    let mode: Arc<dyn Effect> = Arc::new(custom_effect::Superstructure);
+    let mut truth = Params::table_8_1(5).unwrap().to_theta(&spec);
+    truth.extend([4.5, 0.03, 0.3]);
+    let (data, _) = record(&Composite::new(spec, vec![mode]), &truth, 8);
+    let rigid = Composite::new(spec, vec![]);
+    let fit = fit_model(&rigid, &data, None, &MapSettings::default(), 1).unwrap();
+    let d = diagnosis_of(&rigid, &fit, &data).unwrap();
+    assert!(
+        (d.dominant_frequency_hz - 4.5).abs() < 0.1,
+        "{}",
+        d.dominant_frequency_hz
+    );
+    assert!(!d.spectrum.model_can_produce);
+    assert!(
+        d.verdict.contains("unmodelled oscillation at 4.5"),
+        "{}",
+        d.verdict
+    );
+}
