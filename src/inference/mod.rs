@@ -14,6 +14,7 @@ pub mod posterior;
 pub mod priors;
 pub mod sample;
 pub mod summary;
+pub mod tmcmc;
 
 pub use bounds::{BoundsError, BoxTransform};
 pub use cmaes::{Cmaes, CmaesError, CmaesResult, RunSummary, Start, StopReason};
