@@ -8,6 +8,7 @@
 //! | `trilinear` | a third stiffness branch (upgrades `bilinear`) | `f2`, `u3` | closed form |
 //! | `lcfm` | friction growing with amplitude (upgrades `coulomb`) | `rF0` | closed form |
 //! | `viscous` | a viscous damper | `zeta0` | closed form |
+//! | `velocity-friction` | friction falling to `r_mu` times its sliding value at low velocity (Constantinou) | `r_mu`, `v_t` (m/s) | numerical engine |
 //! | `offset` | a constant accelerometer offset | `a_off` (m/s^2) | output component |
 //!
 //! An [`Effect`] is an output component: it sees the base model's sampled
@@ -17,9 +18,9 @@
 //! trait; neither the solver nor the inference code changes
 //! (`examples/custom_effect.rs` adds a flexible superstructure mode).
 //!
-//! Not yet in the catalog: velocity-dependent friction (Constantinou's law,
-//! model-notes.md), which changes the equation of motion itself and needs
-//! the numerical engine (`numeric::ode`) behind the same model trait.
+//! Velocity-dependent friction changes the equation of motion itself, so a
+//! model with it runs on the numerical engine ([`crate::model::numeric`])
+//! behind the same [`ForwardModel`] trait.
 //!
 //! ```
 //! use hbis::criticism::effects::{Composite, Offset};
@@ -41,6 +42,7 @@
 use std::fmt;
 use std::sync::Arc;
 
+use crate::model::numeric::{NumericSystem, VelocityLaw};
 use crate::model::{DamperKind, ParamName};
 use crate::model::{ForwardModel, FrictionKind, ModelSpec, SimError, SpringKind};
 
@@ -87,13 +89,20 @@ impl Effect for Offset {
     }
 }
 
-/// A closed-form base model with output effects.
+/// A base model (closed form, or the numerical engine when friction depends
+/// on velocity) with output effects.
 #[derive(Clone)]
 pub struct Composite {
     spec: ModelSpec,
+    velocity: bool,
     effects: Vec<Arc<dyn Effect>>,
     n_base: usize,
 }
+
+/// Names of the velocity-dependent friction parameters.
+pub const VELOCITY_PARAMS: [&str; 2] = ["r_mu", "v_t"];
+/// Their prior bounds: `mu_slow/mu_fast` and the transition velocity (m/s).
+pub const VELOCITY_BOUNDS: [(f64, f64); 2] = [(0.05, 1.0), (0.005, 0.3)];
 
 impl fmt::Debug for Composite {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
@@ -107,9 +116,30 @@ impl Composite {
         let n_base = spec.param_names().len();
         Self {
             spec,
+            velocity: false,
             effects,
             n_base,
         }
+    }
+
+    /// The same model with velocity-dependent friction (parameters `r_mu`,
+    /// `v_t` follow the spec's parameters), solved by the numerical engine.
+    pub fn with_velocity_friction(mut self) -> Self {
+        if !self.velocity {
+            self.velocity = true;
+            self.n_base += 2;
+        }
+        self
+    }
+
+    /// Whether friction depends on velocity.
+    pub fn velocity_friction(&self) -> bool {
+        self.velocity
+    }
+
+    /// Number of closed-form spec parameters (they come first).
+    pub fn n_spec(&self) -> usize {
+        self.spec.param_names().len()
     }
 
     /// Parses a spec with catalog output effects, e.g.
@@ -117,14 +147,31 @@ impl Composite {
     pub fn parse(s: &str) -> Result<Self, crate::model::SpecError> {
         let mut effects: Vec<Arc<dyn Effect>> = Vec::new();
         let mut base: Vec<&str> = Vec::new();
+        let mut velocity = false;
         for part in s.split('+') {
             match part.trim() {
                 "offset" => effects.push(Arc::new(Offset)),
+                "velocity-friction" => velocity = true,
                 other => base.push(other),
             }
         }
         let spec: ModelSpec = base.join("+").parse()?;
-        Ok(Self::new(spec, effects))
+        let m = Self::new(spec, effects);
+        Ok(if velocity {
+            m.with_velocity_friction()
+        } else {
+            m
+        })
+    }
+
+    /// The same model with another closed-form spec (other parts kept).
+    pub fn with_spec(&self, spec: ModelSpec) -> Self {
+        let m = Self::new(spec, self.effects.clone());
+        if self.velocity {
+            m.with_velocity_friction()
+        } else {
+            m
+        }
     }
 
     /// The closed-form base.
@@ -153,6 +200,9 @@ impl Composite {
                     .expect("every paper parameter has bounds")
             })
             .collect();
+        if self.velocity {
+            b.extend(VELOCITY_BOUNDS);
+        }
         for e in &self.effects {
             b.extend(e.bounds());
         }
@@ -163,6 +213,9 @@ impl Composite {
 impl ForwardModel for Composite {
     fn name(&self) -> String {
         let mut s = self.spec.to_string();
+        if self.velocity {
+            s.push_str("+velocity-friction");
+        }
         for e in &self.effects {
             s.push('+');
             s.push_str(e.name());
@@ -172,6 +225,9 @@ impl ForwardModel for Composite {
 
     fn param_names(&self) -> Vec<String> {
         let mut n = ForwardModel::param_names(&self.spec);
+        if self.velocity {
+            n.extend(VELOCITY_PARAMS.iter().map(|s| s.to_string()));
+        }
         for e in &self.effects {
             n.extend(e.param_names());
         }
@@ -179,7 +235,22 @@ impl ForwardModel for Composite {
     }
 
     fn accel_into(&self, theta: &[f64], dt: f64, out: &mut [f64]) -> Result<(), SimError> {
-        self.spec.accel_into(&theta[..self.n_base], dt, out)?;
+        if self.velocity {
+            let ns = self.n_spec();
+            let p = self.spec.params_from_slice(&theta[..ns])?;
+            let (ratio, v_t) = (theta[ns], theta[ns + 1]);
+            if !(ratio > 0.0 && ratio <= 1.0 && v_t > 0.0) {
+                return Err(SimError::Param(crate::model::ParamError::Invalid {
+                    name: "r_mu/v_t",
+                    value: ratio,
+                    requirement: "need 0 < r_mu <= 1 and v_t > 0",
+                }));
+            }
+            NumericSystem::new(&self.spec, &p, Some(VelocityLaw { ratio, v_t }))
+                .accel_into(dt, out)?;
+        } else {
+            self.spec.accel_into(&theta[..self.n_base], dt, out)?;
+        }
         let mut i = self.n_base;
         for e in &self.effects {
             let k = e.param_names().len();
@@ -190,7 +261,7 @@ impl ForwardModel for Composite {
     }
 
     fn in_support(&self, theta: &[f64]) -> bool {
-        self.spec.in_support(&theta[..self.n_base])
+        self.spec.in_support(&theta[..self.n_spec()])
     }
 }
 
@@ -212,8 +283,9 @@ pub struct Candidate {
 /// warm start from `theta` (a point of `model`).
 pub fn candidates(model: &Composite, theta: &[f64]) -> Vec<Candidate> {
     let spec = model.spec();
-    let base = &theta[..model.n_base()];
-    let extras = &theta[model.n_base()..];
+    let base = &theta[..model.n_spec()];
+    // Velocity-friction parameters and output effects' parameters.
+    let extras = &theta[model.n_spec()..];
     let value = |p: ParamName| -> Option<f64> {
         spec.param_names()
             .iter()
@@ -248,7 +320,7 @@ pub fn candidates(model: &Composite, theta: &[f64]) -> Vec<Candidate> {
         });
         out.push(Candidate {
             effect: "trilinear".into(),
-            model: Composite::new(new, model.effects().to_vec()),
+            model: model.with_spec(new),
             start,
             signature: "a third stiffness branch beyond u3: the period of the largest swings differs from the smaller ones'".into(),
         });
@@ -260,7 +332,7 @@ pub fn candidates(model: &Composite, theta: &[f64]) -> Vec<Candidate> {
         };
         out.push(Candidate {
             effect: "lcfm".into(),
-            model: Composite::new(new, model.effects().to_vec()),
+            model: model.with_spec(new),
             start: upgrade(new, &|_| 0.0),
             signature: "friction growing with amplitude: the acceleration jumps at reversals scale with the amplitude".into(),
         });
@@ -272,9 +344,22 @@ pub fn candidates(model: &Composite, theta: &[f64]) -> Vec<Candidate> {
         };
         out.push(Candidate {
             effect: "viscous".into(),
-            model: Composite::new(new, model.effects().to_vec()),
+            model: model.with_spec(new),
             start: upgrade(new, &|_| 0.0),
             signature: "viscous damping: residual in phase with velocity, largest mid-swing, amplitude decays faster than friction alone allows".into(),
+        });
+    }
+    if spec.friction != FrictionKind::None && !model.velocity_friction() {
+        // Insert r_mu = 1 (no velocity dependence) and a middling v_t after
+        // the spec parameters.
+        let mut start = base.to_vec();
+        start.extend([1.0, 0.05]);
+        start.extend_from_slice(extras);
+        out.push(Candidate {
+            effect: "velocity-friction".into(),
+            model: model.clone().with_velocity_friction(),
+            start,
+            signature: "friction that drops at low velocity (Constantinou): the acceleration right after each reversal, where the mass is slow, differs from the sliding value".into(),
         });
     }
     if !model.effects().iter().any(|e| e.name() == "offset") {
@@ -284,7 +369,10 @@ pub fn candidates(model: &Composite, theta: &[f64]) -> Vec<Candidate> {
         start.push(0.0);
         out.push(Candidate {
             effect: "offset".into(),
-            model: Composite::new(spec, effects),
+            model: Composite {
+                effects,
+                ..model.clone()
+            },
             start,
             signature: Offset.meaning().to_string(),
         });

@@ -40,6 +40,7 @@ use super::effects::{candidates, Composite};
 use super::residuals::{diagnose, Diagnostics};
 use crate::data::Aligned;
 use crate::inference::summary::covariance;
+use crate::inference::Polish;
 use crate::inference::{
     conditional_scales, find_map, sample_posterior, MapError, MapSettings, Noise, Posterior,
     PosteriorError, Prior, Priors, SampleError, SampleSettings,
@@ -117,6 +118,9 @@ pub struct RankedCandidate {
     pub composite: Composite,
 }
 
+/// CMA-ES budget of a refit on the numerical engine.
+pub const NUMERIC_BUDGET: usize = 20_000;
+
 /// BIC threshold for support.
 pub const SUPPORT: f64 = 10.0;
 
@@ -167,7 +171,7 @@ pub fn fit_model(
 
 /// Laplace's approximation of the log-evidence at the MAP, with the
 /// posterior covariance estimated by a short ensemble run from the MAP (2
-/// ensembles, 600 steps, the second half kept). A finite-difference Hessian
+/// ensembles of `2 (d + 1)` walkers, 400 steps, the second half kept). A finite-difference Hessian
 /// is not used: the likelihood is only piecewise smooth (reversals cross
 /// sample instants as parameters change), and curvature measured over a
 /// conditional sd mixes in those small jumps; on a 6-parameter test it put
@@ -183,9 +187,11 @@ fn laplace(
     let (lo, hi) = post.priors().box_bounds();
     let range: Vec<f64> = lo.iter().zip(&hi).map(|(l, h)| h - l).collect();
     let h = conditional_scales(post, theta, &range)?;
+    let walkers = 2 * (d + 1) + (2 * (d + 1)) % 2;
     let settings = SampleSettings::default()
         .with_ensembles(2)
-        .and_then(|s| s.with_max_steps(600))
+        .and_then(|s| s.with_walkers(walkers.max(4)))
+        .and_then(|s| s.with_max_steps(400))
         .and_then(|s| s.with_tau_multiple(1e9))
         .expect("valid settings");
     let sample = sample_posterior(
@@ -237,13 +243,17 @@ pub fn rank_candidates(
         let score = score_test(
             &c.model, &c.start, &new, &model_now, &r, sigma2, data.dt, &nuisance,
         );
-        let refit = fit_model(
-            &c.model,
-            data,
-            Some(c.start.clone()),
-            settings,
-            rng.random(),
-        )?;
+        // The numerical engine costs some 30 times the closed form: its
+        // refit gets a smaller budget (the warm start is already close).
+        let budget = if c.model.velocity_friction() {
+            settings
+                .clone()
+                .with_max_evals(NUMERIC_BUDGET)?
+                .with_polish(Some(Polish::default().with_max_iters(300).expect("valid")))?
+        } else {
+            settings.clone()
+        };
+        let refit = fit_model(&c.model, data, Some(c.start.clone()), &budget, rng.random())?;
         let delta_bic = refit.bic - fit.bic;
         out.push(RankedCandidate {
             effect: c.effect.clone(),
@@ -375,7 +385,7 @@ pub fn diagnosis_of(
     model.accel_into(&fit.theta, data.dt, &mut accel)?;
     let spec = model.spec();
     let base = spec
-        .params_from_slice(&fit.theta[..model.n_base()])
+        .params_from_slice(&fit.theta[..model.n_spec()])
         .map_err(SimError::from)?;
     Ok(diagnose(&spec, &base, &data.a, &accel, data.dt)?)
 }

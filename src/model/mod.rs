@@ -11,6 +11,7 @@
 
 pub mod error;
 pub mod friction;
+pub mod numeric;
 pub mod params;
 pub mod phase;
 pub mod physical;
