@@ -201,8 +201,9 @@ impl NumericSystem {
             }
         }
         // Samples the last step did not reach (round-off at the very end).
-        for i in next..n {
-            out[i] = self.accel(branch, u, v, dir.unwrap_or(1.0));
+        let last = self.accel(branch, u, v, dir.unwrap_or(1.0));
+        for a in out[next..].iter_mut() {
+            *a = last;
         }
         Ok(())
     }
