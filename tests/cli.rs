@@ -1,22 +1,15 @@
 //! The real `hbis` binary, run in temporary folders.
 
+#[path = "common/bin.rs"]
+#[allow(dead_code)]
+mod bin;
+
+use bin::{hbis, stderr};
+
 use std::path::Path;
-use std::process::{Command, Output};
 
 const TEST5: &str = r#"{"u0": 0.1166, "uy": 0.01167, "uF0": 0.00234, "rF0": 0.00235, "zeta0": 0.02256,
  "f0": 0.53979, "f1": 0.41723, "f2": 0.37477, "u3": 0.08252}"#;
-
-fn hbis(dir: &Path, args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_hbis"))
-        .current_dir(dir)
-        .args(args)
-        .output()
-        .expect("runs")
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
 
 fn write(dir: &Path, name: &str, text: &str) {
     std::fs::write(dir.join(name), text).unwrap();

@@ -1,24 +1,17 @@
 //! `hbis diagnose` and `hbis ladder` through the real binary: the documented
 //! keys, and errors that exit 2.
 
+#[path = "common/bin.rs"]
+#[allow(dead_code)]
+mod bin;
+
+use bin::{hbis, stderr};
+
 use std::path::Path;
-use std::process::{Command, Output};
 
 use hbis::data::synthesize;
 use hbis::model::{ModelSpec, Params};
 use rand::{rngs::StdRng, SeedableRng};
-
-fn hbis(dir: &Path, args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_hbis"))
-        .current_dir(dir)
-        .args(args)
-        .output()
-        .expect("runs")
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
 
 /// A Test 7 record of the full model (1.5 % noise).
 fn record(dir: &Path) {

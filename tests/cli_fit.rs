@@ -1,25 +1,18 @@
 //! `hbis fit` through the real binary: the documented keys, determinism
 //! across thread counts, and errors that name the row or field.
 
+#[path = "common/bin.rs"]
+#[allow(dead_code)]
+mod bin;
+
+use bin::{hbis_with, stderr};
+
 use std::path::Path;
-use std::process::{Command, Output};
+use std::process::Command;
 
 use hbis::data::synthesize;
 use hbis::model::{ModelSpec, Params};
 use rand::{rngs::StdRng, SeedableRng};
-
-fn hbis(dir: &Path, args: &[&str], threads: &str) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_hbis"))
-        .current_dir(dir)
-        .env("RAYON_NUM_THREADS", threads)
-        .args(args)
-        .output()
-        .expect("runs")
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
 
 /// A Test 5 record with 0.4 s of held (noise-only) samples before release.
 fn record(dir: &Path) {
@@ -93,9 +86,9 @@ fn fit_json_has_the_documented_keys_and_one_seed_gives_one_result() {
             "100",
         ]
     };
-    let one = hbis(d.path(), &args("one"), "1");
+    let one = hbis_with(d.path(), &args("one"), "1");
     assert!(one.status.success(), "{}", stderr(&one));
-    let two = hbis(d.path(), &args("two"), "2");
+    let two = hbis_with(d.path(), &args("two"), "2");
     assert!(two.status.success(), "{}", stderr(&two));
     let a = without_wall_time(&d.path().join("one/fit.json"));
     let b = without_wall_time(&d.path().join("two/fit.json"));
@@ -191,7 +184,7 @@ fn bad_records_and_priors_exit_2_naming_row_or_field() {
             std::fs::write(d.path().join("prior.json"), prior).unwrap();
             args.extend(["--prior", "prior.json"]);
         }
-        let o = hbis(d.path(), &args, "1");
+        let o = hbis_with(d.path(), &args, "1");
         assert_eq!(o.status.code(), Some(2), "{expected}: {}", stderr(&o));
         assert!(
             stderr(&o).contains(expected),
@@ -200,7 +193,7 @@ fn bad_records_and_priors_exit_2_naming_row_or_field() {
         );
         assert_eq!(stderr(&o).lines().count(), 1, "one line: {}", stderr(&o));
     }
-    let o = hbis(d.path(), &["fit", "--data", "missing.csv"], "1");
+    let o = hbis_with(d.path(), &["fit", "--data", "missing.csv"], "1");
     assert_eq!(o.status.code(), Some(2));
     assert!(stderr(&o).contains("missing.csv"));
 }
@@ -236,7 +229,7 @@ fn killed_and_resumed_runs_end_as_an_uninterrupted_run() {
             "1000",
         ]
     };
-    let whole = hbis(d.path(), &args("whole"), "2");
+    let whole = hbis_with(d.path(), &args("whole"), "2");
     assert!(whole.status.success(), "{}", stderr(&whole));
     let state = d.path().join("resumed/checkpoint/state.json");
     let steps_saved = || -> u64 {
@@ -278,7 +271,7 @@ fn killed_and_resumed_runs_end_as_an_uninterrupted_run() {
         saved.windows(2).all(|w| w[1] > w[0]) && *saved.last().unwrap() < 4000,
         "checkpoints {saved:?}"
     );
-    let last = hbis(d.path(), &args("resumed"), "2");
+    let last = hbis_with(d.path(), &args("resumed"), "2");
     assert!(last.status.success(), "{}", stderr(&last));
     assert_eq!(
         without_wall_time(&d.path().join("whole/fit.json")),

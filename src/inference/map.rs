@@ -154,8 +154,8 @@ impl MapSettings {
     }
 }
 
-/// The polish step in numbers.
-#[derive(Debug, Clone)]
+/// The polish step in numbers (written as `polish` in `fit.json`).
+#[derive(Debug, Clone, serde::Serialize)]
 pub struct PolishReport {
     /// Minus log-posterior before and after.
     pub objective_before: f64,

@@ -68,6 +68,17 @@ pub struct TmcmcResult {
     pub particles: Vec<Vec<f64>>,
 }
 
+/// Incremental weights `L^db`, scaled by the largest finite `L` (returned
+/// as its log) so that they do not overflow.
+fn weights(ll: &[f64], db: f64) -> (Vec<f64>, f64) {
+    let m = ll
+        .iter()
+        .copied()
+        .filter(|v| v.is_finite())
+        .fold(f64::NEG_INFINITY, f64::max);
+    (ll.iter().map(|v| ((v - m) * db).exp()).collect(), m)
+}
+
 /// Runs TMCMC for a uniform prior on the box `[lower, upper]` and a
 /// log-likelihood `ln_like` (`-inf` outside the model's support).
 pub fn tmcmc<F, R>(
@@ -103,12 +114,7 @@ where
         stages += 1;
         // Next beta: weights with a coefficient of variation of 1.
         let cov_of = |db: f64| -> f64 {
-            let m = ll
-                .iter()
-                .copied()
-                .filter(|v| v.is_finite())
-                .fold(f64::NEG_INFINITY, f64::max);
-            let w: Vec<f64> = ll.iter().map(|v| ((v - m) * db).exp()).collect();
+            let (w, _) = weights(&ll, db);
             let mean = w.iter().sum::<f64>() / n as f64;
             let var = w.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / n as f64;
             var.sqrt() / mean
@@ -127,12 +133,7 @@ where
             }
             lo.max(1e-12)
         };
-        let m = ll
-            .iter()
-            .copied()
-            .filter(|v| v.is_finite())
-            .fold(f64::NEG_INFINITY, f64::max);
-        let w: Vec<f64> = ll.iter().map(|v| ((v - m) * db).exp()).collect();
+        let (w, m) = weights(&ll, db);
         let sum_w: f64 = w.iter().sum();
         log_z += (sum_w / n as f64).ln() + m * db;
         beta += db;

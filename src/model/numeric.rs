@@ -37,8 +37,9 @@
 
 use super::error::SimError;
 use super::params::Params;
-use super::spec::{DamperKind, FrictionKind, ModelSpec, SpringKind};
-use super::spring::{Spring, SpringBranch};
+use super::simulate::System;
+use super::spec::ModelSpec;
+use super::spring::SpringBranch;
 use crate::numeric::ode::{Dopri5, Stop};
 
 /// Constantinou's velocity dependence of the friction coefficient.
@@ -61,10 +62,8 @@ impl VelocityLaw {
 /// numerically.
 #[derive(Debug, Clone)]
 pub struct NumericSystem {
-    spring: Spring,
-    ff0: f64,
-    kf: f64,
-    damper: f64,
+    /// Spring, friction amplitude and damper, resolved as for the closed form.
+    system: System,
     u0: f64,
     law: Option<VelocityLaw>,
 }
@@ -72,27 +71,8 @@ pub struct NumericSystem {
 impl NumericSystem {
     /// The system of validated parameters `p` of `spec`, with `law` if given.
     pub fn new(spec: &ModelSpec, p: &Params, law: Option<VelocityLaw>) -> Self {
-        let w = |f: f64| (2.0 * std::f64::consts::PI * f).powi(2);
-        let k0 = w(p.f0);
-        let spring = match spec.spring {
-            SpringKind::Linear => Spring::linear(k0),
-            SpringKind::Bilinear => Spring::bilinear(k0, w(p.f1), p.uy),
-            SpringKind::Trilinear => Spring::trilinear(k0, w(p.f1), w(p.f2), p.uy, p.u3),
-        };
-        let (ff0, kf) = match spec.friction {
-            FrictionKind::None => (0.0, 0.0),
-            FrictionKind::Coulomb => (p.uf0 * k0, 0.0),
-            FrictionKind::Lcfm => (p.uf0 * k0, p.rf0 * k0),
-        };
-        let damper = match spec.damper {
-            DamperKind::None => 0.0,
-            DamperKind::Viscous => 2.0 * p.zeta0 * k0.sqrt(),
-        };
         Self {
-            spring,
-            ff0,
-            kf,
-            damper,
+            system: System::new(spec, p),
             u0: p.u0,
             law,
         }
@@ -103,9 +83,10 @@ impl NumericSystem {
     }
 
     fn accel(&self, b: SpringBranch, u: f64, v: f64, d: f64) -> f64 {
-        -(self.spring.force(b, u)
-            + (self.ff0 + self.kf * u.abs()) * d * self.phi(v)
-            + self.damper * v)
+        let s = &self.system;
+        -(s.spring().force(b, u)
+            + s.friction().amplitude(u) * d * self.phi(v)
+            + s.damper_rate() * v)
     }
 
     /// Samples the acceleration at `t_i = i dt` into `out`.
@@ -122,7 +103,8 @@ impl NumericSystem {
             return Ok(());
         }
         let t_end = dt * (n - 1) as f64 + 0.5 * dt;
-        let sp = &self.spring;
+        let sp = self.system.spring();
+        let fr = self.system.friction();
         let mut t = 0.0;
         let (mut u, mut v) = (self.u0, 0.0);
         let mut branch = SpringBranch::Elastic {
@@ -132,7 +114,7 @@ impl NumericSystem {
         // Direction after a stop, or None if it stays (eq. 5.6, friction at rest).
         let start = |b: SpringBranch, u: f64| {
             let fs = sp.force(b, u);
-            (fs.abs() > (self.ff0 + self.kf * u.abs()) * self.phi(0.0)).then(|| -fs.signum())
+            (fs.abs() > fr.amplitude(u) * self.phi(0.0)).then(|| -fs.signum())
         };
         let mut dir = start(branch, u);
         let mut next = 0usize;
@@ -160,7 +142,7 @@ impl NumericSystem {
             let events = |_: f64, y: &[f64; 2], g: &mut [f64]| {
                 g[0] = d * y[1];
                 g[1] = target.map_or(1.0, |(x, _)| d * (x - y[0]));
-                g[2] = if self.kf != 0.0 { y[0] } else { 1.0 };
+                g[2] = if fr.has_slope() { y[0] } else { 1.0 };
             };
             let observe = |step: &crate::numeric::ode::DenseStep<2>| {
                 while next < n {

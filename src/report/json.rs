@@ -7,7 +7,7 @@ use serde::Serialize;
 
 use crate::data::Aligned;
 use crate::inference::identifiability::ParamIdentifiability;
-use crate::inference::{MapEstimate, Noise, ParamSummary};
+use crate::inference::{MapEstimate, Noise, ParamSummary, PolishReport};
 use crate::model::physical::Physical;
 use crate::study::Fit;
 
@@ -52,25 +52,6 @@ pub struct RunInfo {
     pub stop: String,
 }
 
-/// The polish step.
-#[derive(Debug, Clone, Serialize)]
-pub struct PolishInfo {
-    /// Minus log-posterior before the polish.
-    pub objective_before: f64,
-    /// Minus log-posterior after.
-    pub objective_after: f64,
-    /// `e2` before.
-    pub e2_before: f64,
-    /// `e2` after.
-    pub e2_after: f64,
-    /// Simplex iterations.
-    pub iterations: u64,
-    /// Evaluations.
-    pub evaluations: u64,
-    /// Why it stopped.
-    pub termination: String,
-}
-
 /// The contents of `fit.json`.
 #[derive(Debug, Clone, Serialize)]
 pub struct FitReport {
@@ -101,7 +82,7 @@ pub struct FitReport {
     /// The CMA-ES runs.
     pub cmaes_runs: Vec<RunInfo>,
     /// The polish.
-    pub polish: Option<PolishInfo>,
+    pub polish: Option<PolishReport>,
     /// Wall time of the MAP search (s); with `sampling.wall_time_s` the only
     /// keys that vary between runs with the same seed.
     pub wall_time_s: f64,
@@ -210,15 +191,7 @@ impl FitReport {
                     stop: r.stop.as_str().to_string(),
                 })
                 .collect(),
-            polish: map.polish.as_ref().map(|p| PolishInfo {
-                objective_before: p.objective_before,
-                objective_after: p.objective_after,
-                e2_before: p.e2_before,
-                e2_after: p.e2_after,
-                iterations: p.iterations,
-                evaluations: p.evaluations,
-                termination: p.termination.clone(),
-            }),
+            polish: map.polish.clone(),
             wall_time_s: map.wall_time,
             posterior: None,
             ranking: None,
