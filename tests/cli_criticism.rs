@@ -64,7 +64,9 @@ fn diagnose_writes_the_documented_keys() {
     }
     assert_eq!(c[0]["model"], "trilinear+lcfm+viscous");
     #[cfg(feature = "figures")]
-    assert!(d.path().join("dx/residual.png").exists());
+    for f in ["residual.png", "residual-map.png"] {
+        assert!(d.path().join("dx").join(f).exists(), "{f}");
+    }
 }
 
 #[test]

@@ -97,6 +97,14 @@ pub fn diagnose(a: Args) -> Result<()> {
     let path = out.join("diagnosis.json");
     std::fs::write(&path, &text).with_context(|| format!("cannot write {}", path.display()))?;
     residual_figure(&out.join("residual.png"), &model, &fit, &data)?;
+    #[cfg(feature = "figures")]
+    hbis::report::figures::residual_map_figure(
+        &out.join("residual-map.png"),
+        &diagnosis.map_u_edges,
+        &diagnosis.map_v_edges,
+        &diagnosis.map_force,
+        &format!("{}: restoring-force residual", model.name()),
+    )?;
     let mut err = std::io::stderr().lock();
     print_diagnosis(&mut err, &model.name(), &fit, &diagnosis, &ranked)?;
     writeln!(err, "wrote {}", path.display())?;

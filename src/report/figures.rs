@@ -674,6 +674,99 @@ fn draw_ladder<DB: DrawingBackend>(
     root.present().map_err(e)
 }
 
+/// The restoring-force residual map: the mean residual force per unit mass
+/// over bins of displacement (x) and velocity (y), blue negative, red
+/// positive, white zero, grey where no sample fell.
+pub fn residual_map_figure(
+    path: &Path,
+    u_edges: &[f64],
+    v_edges: &[f64],
+    force: &[Vec<f64>],
+    title: &str,
+) -> Result<(), FigureError> {
+    let ext = checked_extension(path)?;
+    let size = (1000, 800);
+    let result = if ext == "png" {
+        draw_map(
+            BitMapBackend::new(path, size).into_drawing_area(),
+            u_edges,
+            v_edges,
+            force,
+            title,
+        )
+    } else {
+        draw_map(
+            SVGBackend::new(path, size).into_drawing_area(),
+            u_edges,
+            v_edges,
+            force,
+            title,
+        )
+    };
+    result.map_err(|message| FigureError::Draw {
+        path: path.to_path_buf(),
+        message,
+    })
+}
+
+fn draw_map<DB: DrawingBackend>(
+    root: DrawingArea<DB, Shift>,
+    ue: &[f64],
+    ve: &[f64],
+    force: &[Vec<f64>],
+    title: &str,
+) -> Result<(), String> {
+    let e = |x: DrawingAreaErrorKind<DB::ErrorType>| x.to_string();
+    root.fill(&WHITE).map_err(e)?;
+    let scale = force
+        .iter()
+        .flatten()
+        .filter(|v| v.is_finite())
+        .fold(0.0f64, |m, v| m.max(v.abs()))
+        .max(1e-12);
+    let (u0, u1) = (ue[0], ue[ue.len() - 1]);
+    let (v0, v1) = (ve[0], ve[ve.len() - 1]);
+    let mut chart = ChartBuilder::on(&root)
+        .caption(format!("{title} (colour: ±{scale:.2e} N/kg)"), (FONT, 22))
+        .margin(20)
+        .x_label_area_size(45)
+        .y_label_area_size(70)
+        .build_cartesian_2d(u0..u1.max(u0 + 1e-9), v0..v1.max(v0 + 1e-9))
+        .map_err(e)?;
+    chart
+        .configure_mesh()
+        .disable_mesh()
+        .x_desc("u (m)")
+        .y_desc("v (m/s)")
+        .label_style((FONT, 14))
+        .axis_desc_style((FONT, 16))
+        .draw()
+        .map_err(e)?;
+    let colour = |f: f64| -> RGBColor {
+        if !f.is_finite() {
+            return RGBColor(200, 200, 200);
+        }
+        let x = (f / scale).clamp(-1.0, 1.0);
+        let fade = |c: u8, t: f64| (255.0 - (255.0 - c as f64) * t) as u8;
+        if x >= 0.0 {
+            RGBColor(fade(214, x), fade(39, x), fade(40, x))
+        } else {
+            RGBColor(fade(31, -x), fade(119, -x), fade(180, -x))
+        }
+    };
+    for (i, row) in force.iter().enumerate() {
+        for (j, f) in row.iter().enumerate() {
+            chart
+                .draw_series(std::iter::once(Rectangle::new(
+                    [(ue[i], ve[j]), (ue[i + 1], ve[j + 1])],
+                    colour(*f).filled(),
+                )))
+                .map_err(e)?;
+        }
+    }
+    root.present().map_err(e)
+}
+
 /// The lowercase extension (`png` or `svg`), with the font registered.
 fn checked_extension(path: &Path) -> Result<String, FigureError> {
     let ext = path
