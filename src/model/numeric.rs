@@ -11,7 +11,7 @@
 //! which it is checked.
 //!
 //! The hysteretic spring, its branches and the stop rule are the closed-form
-//! model's ([`Spring`], eq. 5.6 with the friction at rest, `r` times the
+//! model's ([`Spring`](super::spring::Spring), eq. 5.6 with the friction at rest, `r` times the
 //! amplitude); each stretch between reversals and spring events is
 //! integrated, with the events located on the dense output: the reversal
 //! (`v = 0`), the spring's next branch change, and `u = 0` (where the
