@@ -26,6 +26,18 @@
 //!
 //! Per-unit-mass parameters (SI units) are named as in the paper:
 //! `u0, uy, uF0, rF0, zeta0, f0, f1, f2, u3` (see [`model::ParamName`]).
+//!
+//! The crate reads like the method:
+//! - [`model`]: spring, friction, closed-form phases, event-driven
+//!   simulation, and the numerical engine for effects that are not
+//!   piecewise linear;
+//! - [`data`]: measured records (validation, release) and synthetic ones;
+//! - [`inference`]: priors, likelihood, posterior, CMA-ES, polish, the
+//!   ensemble sampler, diagnostics, summaries, identifiability, TMCMC;
+//! - [`study`]: one record end to end (MAP, posterior, reports);
+//! - [`criticism`]: residual diagnostics, effects as components, ranking of
+//!   missing effects, the ladder;
+//! - [`report`]: CSV, `fit.json`, CmdStan chains, figures.
 
 pub mod criticism;
 pub mod data;
