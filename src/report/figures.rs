@@ -115,9 +115,11 @@ fn panel<DB: DrawingBackend>(
     let mut labelled = false;
     for c in curves {
         let series = chart
+            // Thick polylines of dense, jagged data grow long miter spikes
+            // at their sharp joins; one pixel draws them faithfully.
             .draw_series(LineSeries::new(
                 c.points.iter().copied(),
-                c.colour.stroke_width(2),
+                c.colour.stroke_width(if c.points.len() > 500 { 1 } else { 2 }),
             ))
             .map_err(|e| e.to_string())?;
         if !c.label.is_empty() {
