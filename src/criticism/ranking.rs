@@ -8,7 +8,9 @@
 //!   difference into its support), summed over the new parameters; about
 //!   chi-square with that many degrees of freedom if the effect is absent;
 //! - a **warm-started refit** (CMA-ES + polish, first run from the current
-//!   MAP with the effect off, so the fit can only improve), giving `e2`, the
+//!   MAP with the effect off, so the fit can only improve; retried with the
+//!   new parameters moved into their support when the score test is large
+//!   but the refit gained nothing), giving `e2`, the
 //!   change of the maximised log-likelihood, of BIC and of the log-evidence
 //!   by Laplace's approximation at the MAP (Beck & Yuen 2004);
 //! - the diagnostic signature it explains.
@@ -120,6 +122,10 @@ pub struct RankedCandidate {
 
 /// CMA-ES budget of a refit on the numerical engine.
 pub const NUMERIC_BUDGET: usize = 20_000;
+
+/// Score above which a refit without gain is retried from a moved start
+/// (the 0.1 % point of chi-square with one degree of freedom is 10.8).
+pub const SCORE_RETRY: f64 = 10.8;
 
 /// BIC threshold for support.
 pub const SUPPORT: f64 = 10.0;
@@ -253,7 +259,27 @@ pub fn rank_candidates(
         } else {
             settings.clone()
         };
-        let refit = fit_model(&c.model, data, Some(c.start.clone()), &budget, rng.random())?;
+        let mut refit = fit_model(&c.model, data, Some(c.start.clone()), &budget, rng.random())?;
+        // A large score with no gain means the refit stayed where the new
+        // parameters are switched off (often on a bound): try again with
+        // them a tenth of their range into the support.
+        if score > SCORE_RETRY && refit.log_likelihood - fit.log_likelihood < 1.0 {
+            let bounds = c.model.bounds();
+            let mut start = c.start.clone();
+            for &k in &new {
+                let (lo, hi) = bounds[k];
+                let step = 0.1 * (hi - lo);
+                start[k] = if start[k] + step <= hi {
+                    start[k] + step
+                } else {
+                    start[k] - step
+                };
+            }
+            let second = fit_model(&c.model, data, Some(start), &budget, rng.random())?;
+            if second.log_likelihood > refit.log_likelihood {
+                refit = second;
+            }
+        }
         let delta_bic = refit.bic - fit.bic;
         out.push(RankedCandidate {
             effect: c.effect.clone(),

@@ -119,7 +119,8 @@ fn panel<DB: DrawingBackend>(
             // at their sharp joins; one pixel draws them faithfully.
             .draw_series(LineSeries::new(
                 c.points.iter().copied(),
-                c.colour.stroke_width(if c.points.len() > 500 { 1 } else { 2 }),
+                c.colour
+                    .stroke_width(if c.points.len() > 500 { 1 } else { 2 }),
             ))
             .map_err(|e| e.to_string())?;
         if !c.label.is_empty() {
