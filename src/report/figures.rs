@@ -14,6 +14,22 @@ use thiserror::Error;
 
 use crate::model::{PhaseKind, Response, Sample, SimError};
 
+/// Draws with `$draw(area, args...)` on a PNG or SVG backend by `$ext`,
+/// naming the file in any error.
+macro_rules! render {
+    ($path:expr, $ext:expr, $size:expr, $draw:ident($($arg:expr),* $(,)?)) => {{
+        let result = if $ext == "png" {
+            $draw(BitMapBackend::new($path, $size).into_drawing_area(), $($arg),*)
+        } else {
+            $draw(SVGBackend::new($path, $size).into_drawing_area(), $($arg),*)
+        };
+        result.map_err(|message| FigureError::Draw {
+            path: $path.to_path_buf(),
+            message,
+        })
+    }};
+}
+
 /// Errors while drawing a figure.
 #[derive(Debug, Error)]
 pub enum FigureError {
@@ -250,42 +266,10 @@ pub fn release_test_figure(
     measured: Option<Measured<'_>>,
     title: &str,
 ) -> Result<(), FigureError> {
-    let ext = path
-        .extension()
-        .and_then(|e| e.to_str())
-        .map(str::to_ascii_lowercase);
-    if !matches!(ext.as_deref(), Some("png") | Some("svg")) {
-        return Err(FigureError::Format {
-            path: path.to_path_buf(),
-        });
-    }
-    if !font_ready() {
-        return Err(FigureError::Draw {
-            path: path.to_path_buf(),
-            message: "the embedded font could not be loaded".into(),
-        });
-    }
+    let ext = checked_extension(path)?;
     let samples = response.sample_grid(dt)?;
     let size = (1600, 1500);
-    let result = if ext.as_deref() == Some("png") {
-        draw(
-            BitMapBackend::new(path, size).into_drawing_area(),
-            &samples,
-            measured,
-            title,
-        )
-    } else {
-        draw(
-            SVGBackend::new(path, size).into_drawing_area(),
-            &samples,
-            measured,
-            title,
-        )
-    };
-    result.map_err(|message| FigureError::Draw {
-        path: path.to_path_buf(),
-        message,
-    })
+    render!(path, &ext, size, draw(&samples, measured, title))
 }
 
 /// Measured against model acceleration (top, with an optional band such as
@@ -332,25 +316,7 @@ pub fn fit_figure(
         label: String::new(),
     }];
     let size = (1600, 1000);
-    let result = if ext == "png" {
-        draw_fit(
-            BitMapBackend::new(path, size).into_drawing_area(),
-            title,
-            &top,
-            &bottom,
-        )
-    } else {
-        draw_fit(
-            SVGBackend::new(path, size).into_drawing_area(),
-            title,
-            &top,
-            &bottom,
-        )
-    };
-    result.map_err(|message| FigureError::Draw {
-        path: path.to_path_buf(),
-        message,
-    })
+    render!(path, &ext, size, draw_fit(title, &top, &bottom))
 }
 
 fn draw_fit<DB: DrawingBackend>(
@@ -386,27 +352,7 @@ pub fn corner_figure(
     let ext = checked_extension(path)?;
     let d = names.len();
     let size = ((260 * d as u32).max(600), (260 * d as u32).max(600));
-    let result = if ext == "png" {
-        draw_corner(
-            BitMapBackend::new(path, size).into_drawing_area(),
-            names,
-            points,
-            marks,
-            title,
-        )
-    } else {
-        draw_corner(
-            SVGBackend::new(path, size).into_drawing_area(),
-            names,
-            points,
-            marks,
-            title,
-        )
-    };
-    result.map_err(|message| FigureError::Draw {
-        path: path.to_path_buf(),
-        message,
-    })
+    render!(path, &ext, size, draw_corner(names, points, marks, title))
 }
 
 fn draw_corner<DB: DrawingBackend>(
@@ -522,27 +468,7 @@ pub fn trace_figure(
 ) -> Result<(), FigureError> {
     let ext = checked_extension(path)?;
     let size = (1400, (180 * names.len() as u32).max(500));
-    let result = if ext == "png" {
-        draw_traces(
-            BitMapBackend::new(path, size).into_drawing_area(),
-            names,
-            traces,
-            burn,
-            title,
-        )
-    } else {
-        draw_traces(
-            SVGBackend::new(path, size).into_drawing_area(),
-            names,
-            traces,
-            burn,
-            title,
-        )
-    };
-    result.map_err(|message| FigureError::Draw {
-        path: path.to_path_buf(),
-        message,
-    })
+    render!(path, &ext, size, draw_traces(names, traces, burn, title))
 }
 
 fn draw_traces<DB: DrawingBackend>(
@@ -604,25 +530,7 @@ pub fn ladder_figure(
 ) -> Result<(), FigureError> {
     let ext = checked_extension(path)?;
     let size = (1400, 800);
-    let result = if ext == "png" {
-        draw_ladder(
-            BitMapBackend::new(path, size).into_drawing_area(),
-            models,
-            e2,
-            log_evidence,
-        )
-    } else {
-        draw_ladder(
-            SVGBackend::new(path, size).into_drawing_area(),
-            models,
-            e2,
-            log_evidence,
-        )
-    };
-    result.map_err(|message| FigureError::Draw {
-        path: path.to_path_buf(),
-        message,
-    })
+    render!(path, &ext, size, draw_ladder(models, e2, log_evidence))
 }
 
 fn draw_ladder<DB: DrawingBackend>(
@@ -689,27 +597,7 @@ pub fn residual_map_figure(
 ) -> Result<(), FigureError> {
     let ext = checked_extension(path)?;
     let size = (1000, 800);
-    let result = if ext == "png" {
-        draw_map(
-            BitMapBackend::new(path, size).into_drawing_area(),
-            u_edges,
-            v_edges,
-            force,
-            title,
-        )
-    } else {
-        draw_map(
-            SVGBackend::new(path, size).into_drawing_area(),
-            u_edges,
-            v_edges,
-            force,
-            title,
-        )
-    };
-    result.map_err(|message| FigureError::Draw {
-        path: path.to_path_buf(),
-        message,
-    })
+    render!(path, &ext, size, draw_map(u_edges, v_edges, force, title))
 }
 
 fn draw_map<DB: DrawingBackend>(
