@@ -26,6 +26,7 @@ use thiserror::Error;
 
 use crate::data::Aligned;
 use crate::inference::identifiability::{self, Identifiability, Segments};
+use crate::inference::release::{fit_lag, LagError};
 use crate::inference::summary::{covariance, ParamSummary};
 use crate::inference::{
     conditional_scales, find_map, sample_posterior, MapError, MapEstimate, MapSettings, Noise,
@@ -53,6 +54,9 @@ pub enum StudyError {
     /// Simulating at the MAP.
     #[error("simulation at the MAP")]
     Sim(#[from] SimError),
+    /// Placing a release detected between two samples.
+    #[error("placing the release between samples")]
+    Lag(#[from] LagError),
     /// Released force and static friction are inconsistent.
     #[error("physical quantities")]
     Physical(#[from] crate::model::physical::PhysicalError),
@@ -133,10 +137,12 @@ pub fn fit_record(
     };
     let mut rng = StdRng::seed_from_u64(options.seed);
     let mut map_settings = options.map.clone();
-    if noise == Noise::Ar1 {
+    let mut data = data;
+    if noise == Noise::Ar1 || data.lag_unknown() {
         // Correlated noise can absorb a misfit, which gives the search broad
         // false basins; start it from the white-noise MAP with rho = 0,
-        // which nests in the AR(1) model.
+        // which nests in the AR(1) model. A release detected between two
+        // samples is placed with the model, from the white-noise MAP.
         let n_model = spec.param_names().len();
         // The user's priors on the model parameters, without `rho`.
         let white_priors = Priors::from_parts(
@@ -147,7 +153,14 @@ pub fn fit_record(
         let white = Posterior::new(spec, data.clone(), white_priors, Noise::White)?;
         let white_map = find_map(&white, &options.map, &mut rng)?;
         let mut start = white_map.theta;
-        start.push(0.0);
+        if data.lag_unknown() {
+            let lagged = fit_lag(&white, &start)?;
+            data = data.with_lag(lagged.lag);
+            start = lagged.theta;
+        }
+        if noise == Noise::Ar1 {
+            start.push(0.0);
+        }
         map_settings = map_settings.with_initial(Some(start))?;
     }
     let posterior = Posterior::new(spec, data, priors, noise)?;

@@ -6,12 +6,13 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
 use hbis::criticism::{
-    diagnosis_of, fit_model, ladder, rank_candidates, Composite, Diagnostics, ModelFit,
-    RankedCandidate, Step,
+    diagnosis_of, fit_model, ladder, place_release, rank_candidates, Composite, Diagnostics,
+    ModelFit, RankedCandidate, Step,
 };
-use hbis::data::{Aligned, Record};
+use hbis::data::{Aligned, Record, ReleaseSource};
 use hbis::inference::MapSettings;
 use hbis::model::ForwardModel;
+use hbis::report::json::DataInfo;
 use serde::Serialize;
 
 #[derive(Debug, clap::Args)]
@@ -43,6 +44,19 @@ fn load(a: &Args) -> Result<(Composite, Aligned)> {
     let data = record
         .aligned(a.t0)
         .with_context(|| format!("in record {}", a.data.display()))?;
+    let mut err = std::io::stderr().lock();
+    writeln!(err, "{}", super::fit::release_line(&data))?;
+    let data = place_release(&model, data, &MapSettings::default(), a.seed ^ 0x7E1E_A5E0)
+        .context("placing the release")?;
+    if data.lag > 0.0 && data.source == ReleaseSource::Detected {
+        writeln!(
+            err,
+            "release placed by a fit of {} at t0 = {} s, {:.2} ms before the first sample",
+            model.name(),
+            data.t0,
+            1e3 * data.lag
+        )?;
+    }
     Ok((model, data))
 }
 
@@ -52,7 +66,7 @@ struct DiagnosisReport<'a> {
     hbis_version: &'a str,
     model: String,
     seed: u64,
-    data: String,
+    data: DataInfo,
     e2: f64,
     bic: f64,
     log_evidence: f64,
@@ -79,7 +93,7 @@ pub fn diagnose(a: Args) -> Result<()> {
         hbis_version: env!("CARGO_PKG_VERSION"),
         model: model.name(),
         seed: a.seed,
-        data: a.data.display().to_string(),
+        data: DataInfo::new(&a.data.display().to_string(), &data),
         e2: fit.e2,
         bic: fit.bic,
         log_evidence: fit.log_evidence,
@@ -120,7 +134,7 @@ struct LadderReport<'a> {
     hbis_version: &'a str,
     model: String,
     seed: u64,
-    data: String,
+    data: DataInfo,
     final_model: String,
     steps: Vec<LadderStep<'a>>,
 }
@@ -181,7 +195,7 @@ pub fn write_ladder(
         hbis_version: env!("CARGO_PKG_VERSION"),
         model: start.to_string(),
         seed,
-        data: source.to_string(),
+        data: DataInfo::new(source, data),
         final_model: steps.last().map_or(String::new(), |s| s.model.clone()),
         steps: steps
             .iter()
@@ -217,7 +231,7 @@ fn residual_figure(path: &Path, model: &Composite, fit: &ModelFit, data: &Aligne
     #[cfg(feature = "figures")]
     {
         let mut accel = vec![0.0; data.a.len()];
-        model.accel_into(&fit.theta, data.dt, &mut accel)?;
+        model.accel_grid_into(&fit.theta, data.lag, data.dt, &mut accel)?;
         let t: Vec<f64> = (0..accel.len())
             .map(|i| data.t0 + i as f64 * data.dt)
             .collect();

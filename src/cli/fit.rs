@@ -108,17 +108,20 @@ pub fn run(a: Args) -> Result<()> {
         label: a.data.display().to_string(),
     };
     let mut err = std::io::stderr().lock();
-    writeln!(
-        err,
-        "release at t0 = {} s ({}), {} samples at dt = {} s",
-        data.t0,
-        data.source.as_str(),
-        data.a.len(),
-        data.dt
-    )?;
+    let lag_unknown = data.lag_unknown();
+    writeln!(err, "{}", release_line(&data))?;
     drop(err);
     let fit = run_fit(spec, data, priors, noise, &options)?;
     let mut err = std::io::stderr().lock();
+    if lag_unknown {
+        let d = fit.posterior.data();
+        writeln!(
+            err,
+            "release placed by the fit at t0 = {} s, {:.2} ms before the first sample",
+            d.t0,
+            1e3 * d.lag
+        )?;
+    }
     print_map(&mut err, &fit.map)?;
     if fit.sample.is_some() {
         print_posterior(&mut err, &fit)?;
@@ -139,6 +142,26 @@ pub fn run(a: Args) -> Result<()> {
 }
 
 /// Runs the study with a progress bar on stderr when it is a terminal.
+/// Where the release is and how it was found, in one line.
+pub fn release_line(data: &Aligned) -> String {
+    let first = data.t0 + data.lag;
+    let when = if data.lag_unknown() {
+        format!(
+            "release detected just before the sample at t = {first} s (placed between samples by the fit)"
+        )
+    } else if data.lag > 0.0 {
+        format!(
+            "release at t0 = {} s ({}), first sample {:.2} ms after it",
+            data.t0,
+            data.source.as_str(),
+            1e3 * data.lag
+        )
+    } else {
+        format!("release at t0 = {} s ({})", data.t0, data.source.as_str())
+    };
+    format!("{when}, {} samples at dt = {} s", data.a.len(), data.dt)
+}
+
 pub fn run_fit(
     spec: ModelSpec,
     data: Aligned,

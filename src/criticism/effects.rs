@@ -234,7 +234,13 @@ impl ForwardModel for Composite {
         n
     }
 
-    fn accel_into(&self, theta: &[f64], dt: f64, out: &mut [f64]) -> Result<(), SimError> {
+    fn accel_grid_into(
+        &self,
+        theta: &[f64],
+        start: f64,
+        dt: f64,
+        out: &mut [f64],
+    ) -> Result<(), SimError> {
         if self.velocity {
             let ns = self.n_spec();
             let p = self.spec.params_from_slice(&theta[..ns])?;
@@ -247,9 +253,10 @@ impl ForwardModel for Composite {
                 }));
             }
             NumericSystem::new(&self.spec, &p, Some(VelocityLaw { ratio, v_t }))
-                .accel_into(dt, out)?;
+                .accel_grid_into(start, dt, out)?;
         } else {
-            self.spec.accel_into(&theta[..self.n_base], dt, out)?;
+            self.spec
+                .accel_grid_into(&theta[..self.n_base], start, dt, out)?;
         }
         let mut i = self.n_base;
         for e in &self.effects {

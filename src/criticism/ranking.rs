@@ -67,6 +67,9 @@ pub enum CriticismError {
     /// The short posterior run of the Laplace approximation.
     #[error("posterior covariance")]
     Sample(#[from] SampleError),
+    /// Placing a release detected between two samples.
+    #[error("placing the release between samples")]
+    Lag(#[from] crate::inference::release::LagError),
 }
 
 /// A fitted model in the numbers the comparison needs.
@@ -139,6 +142,25 @@ pub fn priors_for(model: &Composite) -> Priors {
         .map(|(lower, upper)| Prior::Uniform { lower, upper })
         .collect();
     Priors::from_parts(names, priors).expect("one bound per parameter")
+}
+
+/// `data` with a release detected between two samples placed by a fit of
+/// `model` ([`crate::inference::release`]); other records as they are.
+/// Every later fit of the record (candidates, ladder) keeps this placement.
+pub fn place_release(
+    model: &Composite,
+    data: Aligned,
+    settings: &MapSettings,
+    seed: u64,
+) -> Result<Aligned, CriticismError> {
+    if !data.lag_unknown() {
+        return Ok(data);
+    }
+    let post = Posterior::new(model.clone(), data.clone(), priors_for(model), Noise::White)?;
+    let mut rng = StdRng::seed_from_u64(seed);
+    let map = find_map(&post, settings, &mut rng)?;
+    let lagged = crate::inference::release::fit_lag(&post, &map.theta)?;
+    Ok(data.with_lag(lagged.lag))
 }
 
 /// Fits `model` to `data` (white noise, default priors), warm-started from
@@ -230,10 +252,10 @@ pub fn rank_candidates(
 ) -> Result<Vec<RankedCandidate>, CriticismError> {
     let cands = candidates(current, &fit.theta);
     let mut model_now = vec![0.0; data.a.len()];
-    current.accel_into(&fit.theta, data.dt, &mut model_now)?;
+    current.accel_grid_into(&fit.theta, data.lag, data.dt, &mut model_now)?;
     let r: Vec<f64> = data.a.iter().zip(&model_now).map(|(a, m)| a - m).collect();
     let sigma2 = r.iter().map(|v| v * v).sum::<f64>() / r.len() as f64;
-    let nuisance = jacobian(current, &fit.theta, &model_now, data.dt);
+    let nuisance = jacobian(current, &fit.theta, &model_now, data);
     let mut rng = StdRng::seed_from_u64(seed);
     let mut out = Vec::new();
     for c in cands {
@@ -247,7 +269,7 @@ pub fn rank_candidates(
             .map(|(i, _)| i)
             .collect();
         let score = score_test(
-            &c.model, &c.start, &new, &model_now, &r, sigma2, data.dt, &nuisance,
+            &c.model, &c.start, &new, &model_now, &r, sigma2, data, &nuisance,
         );
         // The numerical engine costs some 30 times the closed form: its
         // refit gets a smaller budget (the warm start is already close).
@@ -308,7 +330,7 @@ fn score_test(
     base_accel: &[f64],
     r: &[f64],
     sigma2: f64,
-    dt: f64,
+    data: &Aligned,
     nuisance: &nalgebra::DMatrix<f64>,
 ) -> f64 {
     let bounds = model.bounds();
@@ -328,7 +350,10 @@ fn score_test(
         } else {
             start[k] - step
         };
-        if model.accel_into(&probe, dt, &mut shifted).is_err() {
+        if model
+            .accel_grid_into(&probe, data.lag, data.dt, &mut shifted)
+            .is_err()
+        {
             continue;
         }
         let g = nalgebra::DVector::from_iterator(
@@ -350,7 +375,12 @@ fn score_test(
 
 /// Finite-difference Jacobian of the model's acceleration (columns scaled
 /// to unit length; only their span matters).
-fn jacobian(model: &Composite, theta: &[f64], accel: &[f64], dt: f64) -> nalgebra::DMatrix<f64> {
+fn jacobian(
+    model: &Composite,
+    theta: &[f64],
+    accel: &[f64],
+    data: &Aligned,
+) -> nalgebra::DMatrix<f64> {
     let bounds = model.bounds();
     let n = accel.len();
     let mut cols: Vec<nalgebra::DVector<f64>> = Vec::new();
@@ -363,7 +393,10 @@ fn jacobian(model: &Composite, theta: &[f64], accel: &[f64], dt: f64) -> nalgebr
         } else {
             theta[k] - step
         };
-        if model.accel_into(&x, dt, &mut shifted).is_err() {
+        if model
+            .accel_grid_into(&x, data.lag, data.dt, &mut shifted)
+            .is_err()
+        {
             continue;
         }
         let c = nalgebra::DVector::from_iterator(n, shifted.iter().zip(accel).map(|(s, a)| s - a));
@@ -408,7 +441,7 @@ pub fn diagnosis_of(
     data: &Aligned,
 ) -> Result<Diagnostics, CriticismError> {
     let mut accel = vec![0.0; data.a.len()];
-    model.accel_into(&fit.theta, data.dt, &mut accel)?;
+    model.accel_grid_into(&fit.theta, data.lag, data.dt, &mut accel)?;
     let spec = model.spec();
     let base = spec
         .params_from_slice(&fit.theta[..model.n_spec()])

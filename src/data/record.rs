@@ -95,7 +95,7 @@ pub struct Record {
 /// How the release instant was chosen.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum ReleaseSource {
-    /// Given by the user (`--t0`), snapped to the first sample at or after it.
+    /// Given by the user (`--t0`); the first sample at or after it is the first used.
     Given,
     /// Detected: the first sample whose |a| reaches half the record's peak.
     Detected,
@@ -111,22 +111,41 @@ impl ReleaseSource {
     }
 }
 
-/// The part of a record after release, on a uniform grid starting at zero.
+/// The part of a record after release, on a uniform grid: sample `i` is
+/// `lag + i dt` after the release.
 #[derive(Debug, Clone)]
 pub struct Aligned {
-    /// Release time in the record's clock (s): the time of the first sample used.
+    /// Release time in the record's clock (s).
     pub t0: f64,
     /// How `t0` was chosen.
     pub source: ReleaseSource,
+    /// Time from the release to the first sample used (s), in `[0, dt)`: a
+    /// release rarely falls on a sample instant. Given `t0`, it is known;
+    /// detected, it starts at 0 and a fit estimates it
+    /// ([`crate::inference::release`]).
+    pub lag: f64,
     /// Index of the first sample used.
     pub first_index: usize,
     /// Sampling step (s).
     pub dt: f64,
-    /// Measured acceleration (m/s^2) at `t0 + i dt`.
+    /// Measured acceleration (m/s^2) at `t0 + lag + i dt`.
     pub a: Vec<f64>,
 }
 
 impl Aligned {
+    /// Whether the release instant is known only to lie between the last
+    /// sample before the detected release and the first one after it.
+    pub fn lag_unknown(&self) -> bool {
+        self.source == ReleaseSource::Detected && self.first_index > 0
+    }
+
+    /// The same samples with the release `lag` s before the first one.
+    pub fn with_lag(mut self, lag: f64) -> Self {
+        self.t0 += self.lag - lag;
+        self.lag = lag;
+        self
+    }
+
     /// Sum of squared measured accelerations, the denominator of `e2`.
     pub fn energy(&self) -> f64 {
         self.a.iter().map(|v| v * v).sum()
@@ -316,9 +335,11 @@ impl Record {
                 });
             }
         }
+        let t0 = t0.unwrap_or(t[0]).min(t[0]);
         Ok(Aligned {
-            t0: t[0],
+            t0,
             source,
+            lag: t[0] - t0,
             first_index: first,
             dt,
             a: self.a[first..].to_vec(),
@@ -382,6 +403,11 @@ mod tests {
         assert!((al.t0 - 0.05).abs() < 1e-12 && (al.dt - 0.005).abs() < 1e-12);
         let given = rec.aligned(Some(0.0201)).unwrap();
         assert_eq!((given.first_index, given.source), (5, ReleaseSource::Given));
+        // The given release lies 4.9 ms before the first sample used.
+        assert!((given.t0 - 0.0201).abs() < 1e-15 && (given.lag - 0.0049).abs() < 1e-12);
+        assert!(al.lag == 0.0 && al.lag_unknown() && !given.lag_unknown());
+        let moved = al.with_lag(0.002);
+        assert!((moved.t0 - 0.048).abs() < 1e-12 && moved.lag == 0.002);
         assert!(rec.aligned(Some(9.0)).is_err());
     }
 

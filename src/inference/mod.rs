@@ -12,6 +12,7 @@ pub mod map;
 pub mod polish;
 pub mod posterior;
 pub mod priors;
+pub mod release;
 pub mod sample;
 pub mod summary;
 pub mod tmcmc;

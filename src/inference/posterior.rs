@@ -183,8 +183,12 @@ impl<M: ForwardModel> Posterior<M> {
     /// The model's acceleration on the record's grid.
     pub fn model_accel(&self, theta: &[f64]) -> Result<Vec<f64>, SimError> {
         let mut out = vec![0.0; self.data.a.len()];
-        self.model
-            .accel_into(&theta[..self.n_model], self.data.dt, &mut out)?;
+        self.model.accel_grid_into(
+            &theta[..self.n_model],
+            self.data.lag,
+            self.data.dt,
+            &mut out,
+        )?;
         Ok(out)
     }
 
@@ -217,7 +221,12 @@ impl<M: ForwardModel> Posterior<M> {
             // no mass there.
             if self
                 .model
-                .accel_into(&theta[..self.n_model], self.data.dt, &mut buf)
+                .accel_grid_into(
+                    &theta[..self.n_model],
+                    self.data.lag,
+                    self.data.dt,
+                    &mut buf,
+                )
                 .is_err()
             {
                 return None;

@@ -35,8 +35,21 @@ pub trait ForwardModel: Send + Sync {
     /// Parameter names, in the order of `theta`.
     fn param_names(&self) -> Vec<String>;
 
+    /// Acceleration at `t_i = start + i dt` (`start >= 0` s after release:
+    /// a record's first sample may come a little after the release) for
+    /// `i < out.len()`, written into `out`.
+    fn accel_grid_into(
+        &self,
+        theta: &[f64],
+        start: f64,
+        dt: f64,
+        out: &mut [f64],
+    ) -> Result<(), SimError>;
+
     /// Acceleration at `t_i = i dt` for `i < out.len()`, written into `out`.
-    fn accel_into(&self, theta: &[f64], dt: f64, out: &mut [f64]) -> Result<(), SimError>;
+    fn accel_into(&self, theta: &[f64], dt: f64, out: &mut [f64]) -> Result<(), SimError> {
+        self.accel_grid_into(theta, 0.0, dt, out)
+    }
 
     /// Whether `theta` lies where the model is identifiable at all; the
     /// posterior puts zero prior mass elsewhere. Default: everywhere.
@@ -58,9 +71,15 @@ impl ForwardModel for ModelSpec {
             .collect()
     }
 
-    fn accel_into(&self, theta: &[f64], dt: f64, out: &mut [f64]) -> Result<(), SimError> {
+    fn accel_grid_into(
+        &self,
+        theta: &[f64],
+        start: f64,
+        dt: f64,
+        out: &mut [f64],
+    ) -> Result<(), SimError> {
         let p = self.params_from_slice(theta)?;
-        System::new(self, &p).accel_into(dt, out, &SimOptions::default())
+        System::new(self, &p).accel_grid_into(start, dt, out, &SimOptions::default())
     }
 
     /// A tri-linear spring needs `u3 < u0`: released short of its third

@@ -91,6 +91,12 @@ impl NumericSystem {
 
     /// Samples the acceleration at `t_i = i dt` into `out`.
     pub fn accel_into(&self, dt: f64, out: &mut [f64]) -> Result<(), SimError> {
+        self.accel_grid_into(0.0, dt, out)
+    }
+
+    /// Samples the acceleration at `t_i = start + i dt` (`start >= 0` s after
+    /// release) into `out`.
+    pub fn accel_grid_into(&self, start: f64, dt: f64, out: &mut [f64]) -> Result<(), SimError> {
         if !(dt > 0.0 && dt.is_finite()) {
             return Err(SimError::Grid {
                 name: "dt",
@@ -98,11 +104,12 @@ impl NumericSystem {
                 requirement: "must be finite and > 0",
             });
         }
+        crate::model::simulate::check_start(start)?;
         let n = out.len();
         if n == 0 {
             return Ok(());
         }
-        let t_end = dt * (n - 1) as f64 + 0.5 * dt;
+        let t_end = start + dt * (n - 1) as f64 + 0.5 * dt;
         let sp = self.system.spring();
         let fr = self.system.friction();
         let mut t = 0.0;
@@ -112,11 +119,11 @@ impl NumericSystem {
             f_i: sp.virgin(u),
         };
         // Direction after a stop, or None if it stays (eq. 5.6, friction at rest).
-        let start = |b: SpringBranch, u: f64| {
+        let start_dir = |b: SpringBranch, u: f64| {
             let fs = sp.force(b, u);
             (fs.abs() > fr.amplitude(u) * self.phi(0.0)).then(|| -fs.signum())
         };
-        let mut dir = start(branch, u);
+        let mut dir = start_dir(branch, u);
         let mut next = 0usize;
         let ode = Dopri5::new()
             .with_rtol(1e-8)
@@ -146,7 +153,7 @@ impl NumericSystem {
             };
             let observe = |step: &crate::numeric::ode::DenseStep<2>| {
                 while next < n {
-                    let ti = next as f64 * dt;
+                    let ti = start + next as f64 * dt;
                     if ti > step.t_end() {
                         break;
                     }
@@ -171,7 +178,7 @@ impl NumericSystem {
                 Stop::Event { index: 0 } => {
                     v = 0.0;
                     branch = sp.unload(branch, u);
-                    dir = start(branch, u);
+                    dir = start_dir(branch, u);
                 }
                 Stop::Event { index: 1 } => {
                     if let Some((x, nb)) = target {

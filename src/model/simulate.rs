@@ -304,9 +304,22 @@ impl System {
     /// Sample the acceleration on the grid `t_i = i dt`, `i < out.len()`,
     /// into `out`. Allocates nothing.
     pub fn accel_into(&self, dt: f64, out: &mut [f64], opts: &SimOptions) -> Result<(), SimError> {
+        self.accel_grid_into(0.0, dt, out, opts)
+    }
+
+    /// Sample the acceleration on the grid `t_i = start + i dt` (`start >= 0`
+    /// s after release), `i < out.len()`, into `out`. Allocates nothing.
+    pub fn accel_grid_into(
+        &self,
+        start: f64,
+        dt: f64,
+        out: &mut [f64],
+        opts: &SimOptions,
+    ) -> Result<(), SimError> {
         check_grid(dt, out.len())?;
-        let t_end = dt * (out.len() - 1) as f64;
-        let mut sink = AccelSampler::new(dt, self.alpha, out);
+        check_start(start)?;
+        let t_end = start + dt * (out.len() - 1) as f64;
+        let mut sink = AccelSampler::new(start, dt, self.alpha, out);
         self.run(t_end, opts, &mut sink)
     }
 }
@@ -332,6 +345,18 @@ pub(crate) fn check_grid(dt: f64, n: usize) -> Result<(), SimError> {
             name: "samples",
             value: n as f64,
             requirement: "need at least 2 samples (duration >= dt)",
+        });
+    }
+    Ok(())
+}
+
+/// Reject a grid start before the release.
+pub(crate) fn check_start(start: f64) -> Result<(), SimError> {
+    if !(start.is_finite() && start >= 0.0) {
+        return Err(SimError::Grid {
+            name: "start",
+            value: start,
+            requirement: "must be a finite time >= 0 s after release",
         });
     }
     Ok(())
@@ -368,7 +393,7 @@ impl<F: FnMut(usize, f64, f64, &Phase)> GridSampler<F> {
         if last {
             self.n
         } else {
-            first_index_at_or_after(ph.t_end, self.dt, self.next, self.n)
+            first_index_at_or_after(ph.t_end, 0.0, self.dt, self.next, self.n)
         }
     }
 }
@@ -415,14 +440,15 @@ impl<F: FnMut(usize, f64, f64, &Phase)> PhaseSink for GridSampler<F> {
     }
 }
 
-/// First sample index at or after `t` (the grid is `i dt`), not before `from`.
-fn first_index_at_or_after(t: f64, dt: f64, from: usize, n: usize) -> usize {
-    let mut e = ((t / dt).ceil().max(0.0) as usize).clamp(from, n);
+/// First sample index at or after `t` (the grid is `start + i dt`), not
+/// before `from`.
+fn first_index_at_or_after(t: f64, start: f64, dt: f64, from: usize, n: usize) -> usize {
+    let mut e = (((t - start) / dt).ceil().max(0.0) as usize).clamp(from, n);
     // The division may be off by an ulp: settle on the exact comparison.
-    while e > from && (e - 1) as f64 * dt >= t {
+    while e > from && start + (e - 1) as f64 * dt >= t {
         e -= 1;
     }
-    while e < n && (e as f64) * dt < t {
+    while e < n && start + (e as f64) * dt < t {
         e += 1;
     }
     e
@@ -442,6 +468,7 @@ const ACCEL_REANCHOR: usize = 256;
 /// (a stride-LANES recurrence) keep the dependency chains short; the one-step
 /// bases are cached per effective stiffness, which recurs from phase to phase.
 struct AccelSampler<'a> {
+    start: f64,
     dt: f64,
     next: usize,
     out: &'a mut [f64],
@@ -451,7 +478,7 @@ struct AccelSampler<'a> {
 }
 
 impl<'a> AccelSampler<'a> {
-    fn new(dt: f64, alpha: f64, out: &'a mut [f64]) -> Self {
+    fn new(start: f64, dt: f64, alpha: f64, out: &'a mut [f64]) -> Self {
         let zero = Basis {
             ec: 0.0,
             es: 0.0,
@@ -459,6 +486,7 @@ impl<'a> AccelSampler<'a> {
             d: 0.0,
         };
         Self {
+            start,
             dt,
             next: 0,
             out,
@@ -488,7 +516,7 @@ impl PhaseSink for AccelSampler<'_> {
         let end = if last {
             n
         } else {
-            first_index_at_or_after(ph.t_end, self.dt, start, n)
+            first_index_at_or_after(ph.t_end, self.start, self.dt, start, n)
         };
         self.next = end.max(start);
         if start >= end {
@@ -504,7 +532,7 @@ impl PhaseSink for AccelSampler<'_> {
         while i < end {
             let stop = end.min(i + ACCEL_REANCHOR);
             // 2 LANES exact values seed the stride-LANES lanes.
-            let (mut u, mut v) = ph.state_at(i as f64 * self.dt);
+            let (mut u, mut v) = ph.state_at(self.start + i as f64 * self.dt);
             let seed = (stop - i).min(2 * LANES);
             for k in 0..seed {
                 if k > 0 {
@@ -573,6 +601,27 @@ mod tests {
         }
     }
 
+    /// A grid that starts after the release samples the same curve: every
+    /// fifth sample of a fine grid, from the third on.
+    #[test]
+    fn a_shifted_grid_samples_the_same_response() {
+        for spec in ["trilinear+lcfm+viscous", "bilinear+coulomb", "linear"] {
+            let spec: ModelSpec = spec.parse().unwrap();
+            let p = spec.restrict(&Params::table_8_1(5).unwrap()).unwrap();
+            let sys = System::new(&spec, &p);
+            let mut fine = vec![0.0; 10_001];
+            sys.accel_into(0.001, &mut fine, &SimOptions::default())
+                .unwrap();
+            let mut coarse = vec![f64::NAN; 1_999];
+            sys.accel_grid_into(0.003, 0.005, &mut coarse, &SimOptions::default())
+                .unwrap();
+            for (i, &a) in coarse.iter().enumerate() {
+                let f = fine[3 + 5 * i];
+                assert!((a - f).abs() < 1e-10, "{spec} i={i}: {a} vs {f}");
+            }
+        }
+    }
+
     #[test]
     fn bad_grids_are_rejected() {
         let sys = System::new(&ModelSpec::FULL, &Params::table_8_1(5).unwrap());
@@ -586,6 +635,12 @@ mod tests {
         assert!(sys
             .accel_into(0.01, &mut out[..1], &SimOptions::default())
             .is_err());
+        for start in [-0.001, f64::NAN] {
+            assert!(matches!(
+                sys.accel_grid_into(start, 0.01, &mut out, &SimOptions::default()),
+                Err(SimError::Grid { name: "start", .. })
+            ));
+        }
     }
 
     #[test]

@@ -24,6 +24,8 @@ pub struct DataInfo {
     pub t0: f64,
     /// `"detected"` or `"given"`.
     pub t0_source: String,
+    /// Time from the release to the first sample used (s), in `[0, dt)`.
+    pub lag: f64,
 }
 
 impl DataInfo {
@@ -35,6 +37,7 @@ impl DataInfo {
             dt: data.dt,
             t0: data.t0,
             t0_source: data.source.as_str().to_string(),
+            lag: data.lag,
         }
     }
 }
