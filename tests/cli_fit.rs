@@ -129,7 +129,21 @@ fn fit_json_has_the_documented_keys_and_one_seed_gives_one_result() {
     );
     assert!(a["map"]["f0"].as_f64().unwrap() > 0.5 && a["map"]["f0"].as_f64().unwrap() < 0.58);
     assert!(a["e2"].as_f64().unwrap() < 0.01);
-    assert!(d.path().join("one/fit.csv").exists());
+    // fit.csv keeps the record's clock: its first row is the first sample used.
+    let fit_csv = std::fs::read_to_string(d.path().join("one/fit.csv")).unwrap();
+    let first_t: f64 = fit_csv
+        .lines()
+        .nth(1)
+        .unwrap()
+        .split(',')
+        .next()
+        .unwrap()
+        .parse()
+        .unwrap();
+    assert!(
+        (first_t - 0.4).abs() < 1e-12,
+        "fit.csv starts at t = {first_t}"
+    );
     #[cfg(feature = "figures")]
     for fig in ["fit.png", "corner.png", "trace.png"] {
         assert!(d.path().join("one").join(fig).exists(), "{fig}");

@@ -232,9 +232,7 @@ fn residual_figure(path: &Path, model: &Composite, fit: &ModelFit, data: &Aligne
     {
         let mut accel = vec![0.0; data.a.len()];
         model.accel_grid_into(&fit.theta, data.lag, data.dt, &mut accel)?;
-        let t: Vec<f64> = (0..accel.len())
-            .map(|i| data.t0 + i as f64 * data.dt)
-            .collect();
+        let t: Vec<f64> = (0..accel.len()).map(|i| data.time(i)).collect();
         hbis::report::figures::fit_figure(
             path,
             &t,

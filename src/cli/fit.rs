@@ -144,7 +144,7 @@ pub fn run(a: Args) -> Result<()> {
 /// Runs the study with a progress bar on stderr when it is a terminal.
 /// Where the release is and how it was found, in one line.
 pub fn release_line(data: &Aligned) -> String {
-    let first = data.t0 + data.lag;
+    let first = data.t_first;
     let when = if data.lag_unknown() {
         format!(
             "release detected just before the sample at t = {first} s (placed between samples by the fit)"
@@ -241,9 +241,7 @@ pub fn write_outputs(
         .with_context(|| format!("cannot write {}", path.display()))?;
     let model = fit.posterior.model_accel(&fit.map.theta)?;
     let band = predictive_band(fit, 200, seed)?;
-    let t: Vec<f64> = (0..model.len())
-        .map(|i| data.t0 + i as f64 * data.dt)
-        .collect();
+    let t: Vec<f64> = (0..model.len()).map(|i| data.time(i)).collect();
     let mut csv = String::from("t,a_measured,a_model,residual");
     if band.is_some() {
         csv.push_str(",a_q05,a_q95");

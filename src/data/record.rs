@@ -117,6 +117,8 @@ impl ReleaseSource {
 pub struct Aligned {
     /// Release time in the record's clock (s).
     pub t0: f64,
+    /// Time of the first sample used, in the record's clock (s).
+    pub t_first: f64,
     /// How `t0` was chosen.
     pub source: ReleaseSource,
     /// Time from the release to the first sample used (s), in `[0, dt)`: a
@@ -141,9 +143,14 @@ impl Aligned {
 
     /// The same samples with the release `lag` s before the first one.
     pub fn with_lag(mut self, lag: f64) -> Self {
-        self.t0 += self.lag - lag;
+        self.t0 = self.t_first - lag;
         self.lag = lag;
         self
+    }
+
+    /// Time of sample `i` in the record's clock (s).
+    pub fn time(&self, i: usize) -> f64 {
+        self.t_first + i as f64 * self.dt
     }
 
     /// Sum of squared measured accelerations, the denominator of `e2`.
@@ -338,6 +345,7 @@ impl Record {
         let t0 = t0.unwrap_or(t[0]).min(t[0]);
         Ok(Aligned {
             t0,
+            t_first: t[0],
             source,
             lag: t[0] - t0,
             first_index: first,
