@@ -5,7 +5,7 @@
 #[allow(dead_code)]
 mod bin;
 
-use bin::{hbis_with, stderr};
+use bin::{hbis, hbis_with, stderr};
 
 use std::path::Path;
 use std::process::Command;
@@ -166,6 +166,59 @@ fn fit_json_has_the_documented_keys_and_one_seed_gives_one_result() {
     assert_eq!(rows, (300 - burn) * 20);
     assert!(stderr(&one).contains("release detected just before the sample at t = 0.4 s"));
     assert!(stderr(&one).contains("release placed by the fit at t0 = "));
+}
+
+/// A record that starts with a > 0 (released the other way, or the sensor
+/// mounted the other way) is fitted mirrored, and reported in its own sign.
+#[test]
+fn a_record_released_the_other_way_is_fitted_mirrored() {
+    let d = tempfile::tempdir().unwrap();
+    record(d.path());
+    let text = std::fs::read_to_string(d.path().join("rec.csv")).unwrap();
+    let mut flipped = String::from("t,a\n");
+    for line in text.lines().skip(1) {
+        let (t, a) = line.split_once(',').unwrap();
+        flipped.push_str(&format!("{t},{}\n", -a.parse::<f64>().unwrap()));
+    }
+    std::fs::write(d.path().join("flip.csv"), flipped).unwrap();
+    let run = |data: &str, out: &str| {
+        let o = hbis(
+            d.path(),
+            &[
+                "fit",
+                "--data",
+                data,
+                "--map-only",
+                "--t0",
+                "0.4",
+                "--out",
+                out,
+            ],
+        );
+        assert!(o.status.success(), "{}", stderr(&o));
+        o
+    };
+    run("rec.csv", "plain");
+    let o = run("flip.csv", "flip");
+    assert!(stderr(&o).contains("fitted mirrored"), "{}", stderr(&o));
+    let plain = without_wall_time(&d.path().join("plain/fit.json"));
+    let flip = without_wall_time(&d.path().join("flip/fit.json"));
+    assert_eq!(plain["data"]["polarity"], 1.0);
+    assert_eq!(flip["data"]["polarity"], -1.0);
+    assert_eq!(plain["map"], flip["map"]);
+    assert_eq!(plain["e2"], flip["e2"]);
+    // fit.csv: measured and model in the record's sign.
+    let row = |dir: &str| -> Vec<f64> {
+        let csv = std::fs::read_to_string(d.path().join(dir).join("fit.csv")).unwrap();
+        let line = csv.lines().nth(1).unwrap().to_string();
+        line.split(',').map(|v| v.parse().unwrap()).collect()
+    };
+    let (p, f) = (row("plain"), row("flip"));
+    assert!(p[1] < 0.0 && p[2] < 0.0, "{p:?}");
+    assert_eq!(f[0], p[0]);
+    for k in 1..4 {
+        assert_eq!(f[k], -p[k]);
+    }
 }
 
 #[test]

@@ -236,8 +236,8 @@ fn residual_figure(path: &Path, model: &Composite, fit: &ModelFit, data: &Aligne
         hbis::report::figures::fit_figure(
             path,
             &t,
-            &data.a,
-            &accel,
+            &data.in_record_sign(&data.a),
+            &data.in_record_sign(&accel),
             None,
             &format!("{}: e2 = {:.5}", model.name(), fit.e2),
         )?;

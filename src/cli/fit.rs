@@ -159,7 +159,16 @@ pub fn release_line(data: &Aligned) -> String {
     } else {
         format!("release at t0 = {} s ({})", data.t0, data.source.as_str())
     };
-    format!("{when}, {} samples at dt = {} s", data.a.len(), data.dt)
+    let mirrored = if data.polarity < 0.0 {
+        "; the record starts with a > 0 (released towards negative displacement, or the sensor points the other way): fitted mirrored, u0 is the size of the release displacement"
+    } else {
+        ""
+    };
+    format!(
+        "{when}, {} samples at dt = {} s{mirrored}",
+        data.a.len(),
+        data.dt
+    )
 }
 
 pub fn run_fit(
@@ -239,8 +248,17 @@ pub fn write_outputs(
     let path = out.join("fit.json");
     std::fs::write(&path, serde_json::to_string_pretty(&report)? + "\n")
         .with_context(|| format!("cannot write {}", path.display()))?;
-    let model = fit.posterior.model_accel(&fit.map.theta)?;
-    let band = predictive_band(fit, 200, seed)?;
+    // In the record's own sign (the fit sees it mirrored if it starts positive).
+    let model = data.in_record_sign(&fit.posterior.model_accel(&fit.map.theta)?);
+    let measured = data.in_record_sign(&data.a);
+    let band = predictive_band(fit, 200, seed)?.map(|(lo, hi)| {
+        let (lo, hi) = (data.in_record_sign(&lo), data.in_record_sign(&hi));
+        if data.polarity < 0.0 {
+            (hi, lo)
+        } else {
+            (lo, hi)
+        }
+    });
     let t: Vec<f64> = (0..model.len()).map(|i| data.time(i)).collect();
     let mut csv = String::from("t,a_measured,a_model,residual");
     if band.is_some() {
@@ -251,9 +269,9 @@ pub fn write_outputs(
         csv.push_str(&format!(
             "{},{},{},{}",
             t[i],
-            data.a[i],
+            measured[i],
             model[i],
-            data.a[i] - model[i]
+            measured[i] - model[i]
         ));
         if let Some((lo, hi)) = &band {
             csv.push_str(&format!(",{},{}", lo[i], hi[i]));
@@ -268,7 +286,7 @@ pub fn write_outputs(
         figures::fit_figure(
             &out.join("fit.png"),
             &t,
-            &data.a,
+            &measured,
             &model,
             band.as_ref().map(|(l, h)| (l.as_slice(), h.as_slice())),
             &format!("{spec}: MAP fit, e2 = {:.5}", fit.map.eval.e2),

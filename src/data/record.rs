@@ -130,7 +130,13 @@ pub struct Aligned {
     pub first_index: usize,
     /// Sampling step (s).
     pub dt: f64,
-    /// Measured acceleration (m/s^2) at `t0 + lag + i dt`.
+    /// `1`, or `-1` when the record starts with a positive acceleration:
+    /// released towards negative displacement, or the sensor points the
+    /// other way. The model is odd in `(u, v, a)`, so such a record is the
+    /// mirror image of a release from `|u0|`, and `a` holds it mirrored:
+    /// every fit sees the paper's convention (`u0 > 0`, `a(0) < 0`).
+    pub polarity: f64,
+    /// Measured acceleration (m/s^2) at `t0 + lag + i dt`, times `polarity`.
     pub a: Vec<f64>,
 }
 
@@ -146,6 +152,11 @@ impl Aligned {
         self.t0 = self.t_first - lag;
         self.lag = lag;
         self
+    }
+
+    /// `v` (model or record, fit frame) in the record's own sign.
+    pub fn in_record_sign(&self, v: &[f64]) -> Vec<f64> {
+        v.iter().map(|x| self.polarity * x).collect()
     }
 
     /// Time of sample `i` in the record's clock (s).
@@ -343,6 +354,10 @@ impl Record {
             }
         }
         let t0 = t0.unwrap_or(t[0]).min(t[0]);
+        // Released from u0 > 0 the spring pulls back: the first samples are
+        // negative, and near the record's peak.
+        let head: f64 = self.a[first..(first + 5).min(self.len())].iter().sum();
+        let polarity = if head > 0.0 { -1.0 } else { 1.0 };
         Ok(Aligned {
             t0,
             t_first: t[0],
@@ -350,7 +365,8 @@ impl Record {
             lag: t[0] - t0,
             first_index: first,
             dt,
-            a: self.a[first..].to_vec(),
+            polarity,
+            a: self.a[first..].iter().map(|a| polarity * a).collect(),
         })
     }
 
@@ -414,6 +430,12 @@ mod tests {
         // The given release lies 4.9 ms before the first sample used.
         assert!((given.t0 - 0.0201).abs() < 1e-15 && (given.lag - 0.0049).abs() < 1e-12);
         assert!(al.lag == 0.0 && al.lag_unknown() && !given.lag_unknown());
+        assert_eq!(al.polarity, 1.0);
+        let mirrored: Vec<f64> = rec.a().iter().map(|a| -a).collect();
+        let flip = Record::new(rec.t().to_vec(), mirrored).unwrap();
+        let fl = flip.aligned(None).unwrap();
+        assert_eq!((fl.polarity, fl.first_index), (-1.0, 10));
+        assert_eq!(fl.a, al.a);
         let moved = al.with_lag(0.002);
         assert!((moved.t0 - 0.048).abs() < 1e-12 && moved.lag == 0.002);
         assert!(rec.aligned(Some(9.0)).is_err());

@@ -26,6 +26,8 @@ pub struct DataInfo {
     pub t0_source: String,
     /// Time from the release to the first sample used (s), in `[0, dt)`.
     pub lag: f64,
+    /// `1`, or `-1` if the record was fitted mirrored (it starts with a > 0).
+    pub polarity: f64,
 }
 
 impl DataInfo {
@@ -38,6 +40,7 @@ impl DataInfo {
             t0: data.t0,
             t0_source: data.source.as_str().to_string(),
             lag: data.lag,
+            polarity: data.polarity,
         }
     }
 }
