@@ -242,9 +242,12 @@ fn explain(
                 .sum();
             let near_frac =
                 seg.near_reversal.iter().filter(|n| **n).count() as f64 / info.len() as f64;
+            // Fine sampling leaves few samples near reversals: keep a digit.
+            let digits = if 100.0 * near_frac < 9.5 { 1 } else { 0 };
             text.push_str(&format!(
-                " Where its information comes from: {:.0} % from the {:.0} % of samples within two steps of a reversal (the friction jumps)",
+                " Where its information comes from: {:.0} % from the {:.*} % of samples within two steps of a reversal (the friction jumps)",
                 100.0 * near / total,
+                digits,
                 100.0 * near_frac
             ));
             let mut phases: Vec<(String, f64)> = Vec::new();
