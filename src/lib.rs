@@ -31,7 +31,8 @@
 //! - [`model`]: spring, friction, closed-form phases, event-driven
 //!   simulation, and the numerical engine for effects that are not
 //!   piecewise linear;
-//! - [`data`]: measured records (validation, release) and synthetic ones;
+//! - [`data`]: measured records (validation, release instant, polarity) and
+//!   synthetic ones;
 //! - [`inference`]: priors, likelihood, posterior, CMA-ES, polish, the
 //!   ensemble sampler, diagnostics, summaries, identifiability, TMCMC;
 //! - [`study`]: one record end to end (MAP, posterior, reports);
