@@ -69,10 +69,38 @@ fn diagnose_writes_the_documented_keys() {
     }
 }
 
+/// The record of [`record`] held for 0.3 s first, released 2.3 ms before
+/// the first moving sample.
+fn held_record(dir: &Path) {
+    use hbis::model::ForwardModel;
+    use rand_distr::{Distribution, Normal};
+    let spec = ModelSpec::FULL;
+    let truth = Params::table_8_1(7).unwrap().to_theta(&spec);
+    let mut clean = vec![0.0; 2001];
+    spec.accel_grid_into(&truth, 0.0023, 0.005, &mut clean)
+        .unwrap();
+    let peak = clean.iter().fold(0.0f64, |m, a| m.max(a.abs()));
+    let noise = Normal::new(0.0, 0.015 * peak).unwrap();
+    let mut rng = StdRng::seed_from_u64(77);
+    let mut text = String::from("t,a\n");
+    for i in 0..60 {
+        text.push_str(&format!(
+            "{},{}\n",
+            i as f64 * 0.005,
+            noise.sample(&mut rng)
+        ));
+    }
+    for (i, a) in clean.iter().enumerate() {
+        let t = 0.3 + i as f64 * 0.005;
+        text.push_str(&format!("{t},{}\n", a + noise.sample(&mut rng)));
+    }
+    std::fs::write(dir.join("rec.csv"), text).unwrap();
+}
+
 #[test]
 fn ladder_writes_its_steps() {
     let d = tempfile::tempdir().unwrap();
-    record(d.path());
+    held_record(d.path());
     let o = hbis(
         d.path(),
         &[
@@ -94,10 +122,19 @@ fn ladder_writes_its_steps() {
     assert_eq!(steps[1]["added"], "viscous");
     assert_eq!(v["final_model"], "trilinear+lcfm+viscous");
     for s in steps {
-        for k in ["model", "added", "e2", "bic"] {
+        for k in ["model", "added", "e2", "bic", "log_evidence", "lag"] {
             assert!(s.get(k).is_some(), "step lacks `{k}`");
         }
+        let lag = s["lag"].as_f64().unwrap();
+        assert!((0.0..0.005).contains(&lag), "lag {lag}");
     }
+    // The release lies between the held samples and the first moving one
+    // (0.3 s); the record is reported with the final model's placement.
+    let data = &v["data"];
+    assert_eq!(data["t0_source"], "detected");
+    let (t0, lag) = (data["t0"].as_f64().unwrap(), data["lag"].as_f64().unwrap());
+    assert!((t0 + lag - 0.3).abs() < 1e-9, "t0 {t0} lag {lag}");
+    assert_eq!(data["lag"], steps.last().unwrap()["lag"]);
     #[cfg(feature = "figures")]
     for f in ["ladder.png", "step-0.png", "step-1.png"] {
         assert!(d.path().join("lx").join(f).exists(), "{f}");

@@ -146,6 +146,7 @@ struct LadderStep<'a> {
     e2: f64,
     bic: f64,
     log_evidence: f64,
+    lag: f64,
     verdict: &'a str,
     candidates: &'a [RankedCandidate],
 }
@@ -195,7 +196,12 @@ pub fn write_ladder(
         hbis_version: env!("CARGO_PKG_VERSION"),
         model: start.to_string(),
         seed,
-        data: DataInfo::new(source, data),
+        data: DataInfo::new(
+            source,
+            &data
+                .clone()
+                .with_lag(steps.last().map_or(data.lag, |s| s.lag)),
+        ),
         final_model: steps.last().map_or(String::new(), |s| s.model.clone()),
         steps: steps
             .iter()
@@ -205,6 +211,7 @@ pub fn write_ladder(
                 e2: s.e2,
                 bic: s.bic,
                 log_evidence: s.log_evidence,
+                lag: s.lag,
                 verdict: &s.diagnosis.verdict,
                 candidates: &s.candidates,
             })
@@ -215,7 +222,8 @@ pub fn write_ladder(
     std::fs::write(&path, &text).with_context(|| format!("cannot write {}", path.display()))?;
     for (k, s) in steps.iter().enumerate() {
         let model = Composite::parse(&s.model)?;
-        residual_figure(&out.join(format!("step-{k}.png")), &model, &s.fit, data)?;
+        let at_lag = data.clone().with_lag(s.lag);
+        residual_figure(&out.join(format!("step-{k}.png")), &model, &s.fit, &at_lag)?;
     }
     #[cfg(feature = "figures")]
     {

@@ -159,8 +159,19 @@ pub fn place_release(
     let post = Posterior::new(model.clone(), data.clone(), priors_for(model), Noise::White)?;
     let mut rng = StdRng::seed_from_u64(seed);
     let map = find_map(&post, settings, &mut rng)?;
-    let lagged = crate::inference::release::fit_lag(&post, &map.theta)?;
-    Ok(data.with_lag(lagged.lag))
+    Ok(replace_release(model, &data, &map.theta)?.0)
+}
+
+/// The release placed again by `model` from parameters `theta` near its
+/// MAP: the record with the new lag, and the parameters that go with it.
+fn replace_release(
+    model: &Composite,
+    data: &Aligned,
+    theta: &[f64],
+) -> Result<(Aligned, Vec<f64>), CriticismError> {
+    let post = Posterior::new(model.clone(), data.clone(), priors_for(model), Noise::White)?;
+    let lagged = crate::inference::release::fit_lag(&post, theta)?;
+    Ok((data.clone().with_lag(lagged.lag), lagged.theta))
 }
 
 /// Fits `model` to `data` (white noise, default priors), warm-started from
@@ -424,6 +435,10 @@ pub struct Step {
     pub bic: f64,
     /// Laplace log-evidence.
     pub log_evidence: f64,
+    /// Time from the release to the first sample (s) this model was fitted
+    /// with: a release detected between samples is placed again by each
+    /// model of the ladder.
+    pub lag: f64,
     /// The residual diagnosis of this model.
     #[serde(skip)]
     pub diagnosis: Diagnostics,
@@ -460,12 +475,13 @@ pub fn ladder(
 ) -> Result<Vec<Step>, CriticismError> {
     let mut rng = StdRng::seed_from_u64(seed);
     let mut model = start;
-    let mut fit = fit_model(&model, data, None, settings, rng.random())?;
+    let mut data = data.clone();
+    let mut fit = fit_model(&model, &data, None, settings, rng.random())?;
     let mut added: Option<String> = None;
     let mut steps = Vec::new();
     for _ in 0..=max_steps {
-        let diagnosis = diagnosis_of(&model, &fit, data)?;
-        let cands = rank_candidates(&model, &fit, data, settings, rng.random())?;
+        let diagnosis = diagnosis_of(&model, &fit, &data)?;
+        let cands = rank_candidates(&model, &fit, &data, settings, rng.random())?;
         let next = cands.first().filter(|c| c.supported).cloned();
         steps.push(Step {
             model: model.name(),
@@ -473,6 +489,7 @@ pub fn ladder(
             e2: fit.e2,
             bic: fit.bic,
             log_evidence: fit.log_evidence,
+            lag: data.lag,
             diagnosis,
             candidates: cands,
             fit: fit.clone(),
@@ -482,6 +499,13 @@ pub fn ladder(
                 added = Some(c.effect.clone());
                 model = c.composite;
                 fit = c.fit;
+                if data.lag_unknown() {
+                    // Placed by a model without this effect, the release
+                    // may be off: the new model places it again.
+                    let (placed, theta) = replace_release(&model, &data, &fit.theta)?;
+                    data = placed;
+                    fit = fit_model(&model, &data, Some(theta), settings, rng.random())?;
+                }
             }
             _ => break,
         }

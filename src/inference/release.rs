@@ -115,14 +115,16 @@ impl<M: ForwardModel> ForwardModel for Delayed<M> {
     }
 }
 
-/// Estimates the lag of `posterior`'s record (white noise; its data's own
-/// lag is replaced) from model parameters `theta` near the `lag = 0` MAP.
+/// Estimates the lag of `posterior`'s record (white noise) from model
+/// parameters `theta` near the MAP at the record's current lag; the result
+/// is never worse than that start.
 pub fn fit_lag<M: ForwardModel + Clone>(
     posterior: &Posterior<M>,
     theta: &[f64],
 ) -> Result<LagFit, LagError> {
     let model = posterior.model().clone();
     let n = model.param_names().len();
+    let current = posterior.data().lag;
     let data = posterior.data().clone().with_lag(0.0);
     let dt = data.dt;
     let mut names = posterior.priors().names()[..n].to_vec();
@@ -150,8 +152,15 @@ pub fn fit_lag<M: ForwardModel + Clone>(
     let polish = Polish::default()
         .with_max_iters(1500)
         .and_then(|p| p.with_relative_step(1.0))?;
-    let mut evaluations = 0;
-    let mut best: Option<LagFit> = None;
+    let mut evaluations = 1;
+    let mut start = theta[..n].to_vec();
+    start.push(current);
+    let mut best = LagFit {
+        lag: current,
+        theta: theta[..n].to_vec(),
+        cost: cost(&start)?,
+        evaluations: 0,
+    };
     // Continuation: each lag starts from the optimum at the one before, as
     // the parameters that absorb a shift move smoothly with it.
     let mut from = theta[..n].to_vec();
@@ -166,16 +175,15 @@ pub fn fit_lag<M: ForwardModel + Clone>(
         let out = polish.run(Profile(&fixed), &from, &scale)?;
         evaluations += out.evaluations;
         from.clone_from(&out.x);
-        if best.as_ref().is_none_or(|b| out.cost_after < b.cost) {
-            best = Some(LagFit {
+        if out.cost_after < best.cost {
+            best = LagFit {
                 lag,
                 theta: out.x,
                 cost: out.cost_after,
                 evaluations: 0,
-            });
+            };
         }
     }
-    let best = best.expect("the grid is not empty");
     let mut start = best.theta.clone();
     start.push(best.lag);
     scale.push(0.1 * dt);
