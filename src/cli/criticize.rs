@@ -1,13 +1,13 @@
 //! `hbis diagnose` and `hbis ladder`: where the model fails and which
 //! physical effect is missing.
 
-use std::io::Write;
+use std::io::{IsTerminal, Write};
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
 use hbis::criticism::{
-    diagnosis_of, fit_model, ladder, place_release, rank_candidates, Composite, Diagnostics,
-    ModelFit, RankedCandidate, Step,
+    diagnosis_of, fit_model, ladder_observed, place_release, rank_candidates, Composite,
+    Diagnostics, ModelFit, RankedCandidate, Step,
 };
 use hbis::data::{Aligned, Record, ReleaseSource};
 use hbis::inference::MapSettings;
@@ -176,9 +176,21 @@ pub fn run_ladder(a: Args) -> Result<()> {
     Ok(())
 }
 
-/// Runs the ladder (at most four effects are added: the catalog's size).
+/// Runs the ladder (at most four effects are added: the catalog's size),
+/// with a line per step on standard error when it is a terminal.
 pub fn ladder_steps(model: Composite, data: &Aligned, seed: u64) -> Result<Vec<Step>> {
-    ladder(model, data, &MapSettings::default(), seed, 4).context("ladder")
+    let live = std::io::stderr().is_terminal();
+    let mut report = |s: &Step| {
+        if !live {
+            return;
+        }
+        let next = match s.candidates.first() {
+            Some(c) if c.supported => format!("adding {}", c.effect),
+            _ => "no effect supported".to_string(),
+        };
+        eprintln!("  fitted {}: e2 = {:.5}; {next}", s.model, s.e2);
+    };
+    ladder_observed(model, data, &MapSettings::default(), seed, 4, &mut report).context("ladder")
 }
 
 /// Writes ladder.json, ladder.png and one residual figure per step.

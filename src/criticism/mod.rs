@@ -7,7 +7,7 @@ pub mod residuals;
 
 pub use effects::{candidates, Candidate, Composite, Effect, Offset};
 pub use ranking::{
-    diagnosis_of, fit_model, ladder, place_release, priors_for, rank_candidates, CriticismError,
-    ModelFit, RankedCandidate, Step,
+    diagnosis_of, fit_model, ladder, ladder_observed, place_release, priors_for, rank_candidates,
+    CriticismError, ModelFit, RankedCandidate, Step,
 };
 pub use residuals::{diagnose, Diagnostics};

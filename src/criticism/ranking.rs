@@ -473,6 +473,19 @@ pub fn ladder(
     seed: u64,
     max_steps: usize,
 ) -> Result<Vec<Step>, CriticismError> {
+    ladder_observed(start, data, settings, seed, max_steps, &mut |_| {})
+}
+
+/// [`ladder`], calling `on_step` with each step as soon as it is done (for
+/// progress reports; the result does not depend on it).
+pub fn ladder_observed(
+    start: Composite,
+    data: &Aligned,
+    settings: &MapSettings,
+    seed: u64,
+    max_steps: usize,
+    on_step: &mut dyn FnMut(&Step),
+) -> Result<Vec<Step>, CriticismError> {
     let mut rng = StdRng::seed_from_u64(seed);
     let mut model = start;
     let mut data = data.clone();
@@ -494,6 +507,7 @@ pub fn ladder(
             candidates: cands,
             fit: fit.clone(),
         });
+        on_step(steps.last().expect("just pushed"));
         match next {
             Some(c) if steps.len() <= max_steps => {
                 added = Some(c.effect.clone());
