@@ -136,6 +136,8 @@ pub fn fit_record(
         None => Priors::defaults(&names)?,
     };
     let mut rng = StdRng::seed_from_u64(options.seed);
+    let clock = std::time::Instant::now();
+    let mut preparation = 0;
     let mut map_settings = options.map.clone();
     let mut data = data;
     if noise == Noise::Ar1 || data.lag_unknown() {
@@ -152,9 +154,11 @@ pub fn fit_record(
         .expect("as many priors as names");
         let white = Posterior::new(spec, data.clone(), white_priors, Noise::White)?;
         let white_map = find_map(&white, &options.map, &mut rng)?;
+        preparation += white_map.evaluations();
         let mut start = white_map.theta;
         if data.lag_unknown() {
             let lagged = fit_lag(&white, &start)?;
+            preparation += lagged.evaluations;
             data = data.with_lag(lagged.lag);
             start = lagged.theta;
         }
@@ -164,7 +168,9 @@ pub fn fit_record(
         map_settings = map_settings.with_initial(Some(start))?;
     }
     let posterior = Posterior::new(spec, data, priors, noise)?;
-    let map = find_map(&posterior, &map_settings, &mut rng)?;
+    let mut map = find_map(&posterior, &map_settings, &mut rng)?;
+    map.preparation_evaluations = preparation;
+    map.wall_time = clock.elapsed().as_secs_f64();
     let physical_map = match options.forces {
         Some((f, s)) => Some(Physical::from_params(
             &spec,

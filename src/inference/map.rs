@@ -188,14 +188,20 @@ pub struct MapEstimate {
     pub runs: Vec<RunSummary>,
     /// The polish, if run.
     pub polish: Option<PolishReport>,
-    /// Wall time (s).
+    /// Evaluations of the stages that prepared this search (the white-noise
+    /// MAP that starts an AR(1) search, the placement of a release between
+    /// samples); 0 from [`find_map`] alone.
+    pub preparation_evaluations: u64,
+    /// Wall time (s), preparation included.
     pub wall_time: f64,
 }
 
 impl MapEstimate {
-    /// All posterior evaluations: CMA-ES plus polish.
+    /// All posterior evaluations: preparation, CMA-ES and polish.
     pub fn evaluations(&self) -> u64 {
-        self.cmaes_evaluations as u64 + self.polish.as_ref().map_or(0, |p| p.evaluations)
+        self.preparation_evaluations
+            + self.cmaes_evaluations as u64
+            + self.polish.as_ref().map_or(0, |p| p.evaluations)
     }
 }
 
@@ -361,6 +367,7 @@ where
         cmaes_evaluations: evaluations,
         runs,
         polish: polish_report,
+        preparation_evaluations: 0,
         wall_time: clock.elapsed().as_secs_f64(),
     })
 }
