@@ -34,8 +34,18 @@ pub fn synthesize<M: ForwardModel + ?Sized, R: Rng + ?Sized>(
     noise_fraction: f64,
     rng: &mut R,
 ) -> Result<Synthetic, SimError> {
+    if !(noise_fraction.is_finite() && noise_fraction >= 0.0) {
+        return Err(SimError::Grid {
+            name: "noise_fraction",
+            value: noise_fraction,
+            requirement: "must be a finite number >= 0",
+        });
+    }
     let mut clean = vec![0.0; n];
     model.accel_into(theta, dt, &mut clean)?;
+    if let Some(i) = clean.iter().position(|a| !a.is_finite()) {
+        return Err(SimError::NotFinite { t: i as f64 * dt });
+    }
     let peak = clean.iter().fold(0.0f64, |m, v| m.max(v.abs()));
     let sigma = noise_fraction * peak;
     let a: Vec<f64> = match Normal::new(0.0, sigma) {
@@ -43,7 +53,11 @@ pub fn synthesize<M: ForwardModel + ?Sized, R: Rng + ?Sized>(
         _ => clean.clone(),
     };
     let energy: f64 = a.iter().map(|v| v * v).sum();
-    let noise_floor = n as f64 * sigma * sigma / energy;
+    let noise_floor = if sigma > 0.0 {
+        n as f64 * sigma * sigma / energy
+    } else {
+        0.0
+    };
     let t = (0..n).map(|i| i as f64 * dt).collect();
     let record = Record::new(t, a).expect("a simulated record is finite and increasing");
     Ok(Synthetic {
@@ -52,4 +66,47 @@ pub fn synthesize<M: ForwardModel + ?Sized, R: Rng + ?Sized>(
         sigma,
         noise_floor,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{rngs::StdRng, SeedableRng};
+
+    /// A faulty component: NaN from the third sample on.
+    struct Faulty;
+
+    impl ForwardModel for Faulty {
+        fn name(&self) -> String {
+            "faulty".into()
+        }
+        fn param_names(&self) -> Vec<String> {
+            vec![]
+        }
+        fn accel_grid_into(
+            &self,
+            _: &[f64],
+            _: f64,
+            _: f64,
+            out: &mut [f64],
+        ) -> Result<(), SimError> {
+            for (i, a) in out.iter_mut().enumerate() {
+                *a = if i < 2 { -1.0 } else { f64::NAN };
+            }
+            Ok(())
+        }
+    }
+
+    #[test]
+    fn a_faulty_model_or_noise_level_is_an_error_not_a_panic() {
+        let mut rng = StdRng::seed_from_u64(1);
+        let err = synthesize(&Faulty, &[], 0.01, 10, 0.01, &mut rng).unwrap_err();
+        assert_eq!(err, SimError::NotFinite { t: 0.02 });
+        for bad in [-0.1, f64::NAN] {
+            let err = synthesize(&Faulty, &[], 0.01, 2, bad, &mut rng).unwrap_err();
+            assert!(err.to_string().contains("noise_fraction"), "{err}");
+        }
+        let clean = synthesize(&Faulty, &[], 0.01, 2, 0.0, &mut rng).unwrap();
+        assert_eq!((clean.sigma, clean.noise_floor), (0.0, 0.0));
+    }
 }

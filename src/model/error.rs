@@ -56,7 +56,8 @@ pub enum SpecError {
 pub enum SimError {
     #[error(transparent)]
     Param(#[from] ParamError),
-    /// The time step or duration is not usable.
+    /// A sampling setting (time step, duration, grid start, noise level) is
+    /// not usable.
     #[error("`{name}` = {value}: {requirement}")]
     Grid {
         name: &'static str,
@@ -69,4 +70,8 @@ pub enum SimError {
     /// The response grows without bound (negative net stiffness).
     #[error("the response diverges (|u| = {u:e} m at t = {t:.6} s): the net restoring force becomes negative")]
     Diverged { t: f64, u: f64 },
+    /// A model component produced a NaN or infinite acceleration: a bug in
+    /// that component, reported instead of propagated.
+    #[error("the model's acceleration is not finite at t = {t:.6} s (a bug in a model component)")]
+    NotFinite { t: f64 },
 }
