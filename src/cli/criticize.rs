@@ -251,7 +251,7 @@ fn residual_figure(path: &Path, model: &Composite, fit: &ModelFit, data: &Aligne
     #[cfg(feature = "figures")]
     {
         let mut accel = vec![0.0; data.a.len()];
-        model.accel_grid_into(&fit.theta, data.lag, data.dt, &mut accel)?;
+        data.model_accel_into(model, &fit.theta, &mut accel)?;
         let t: Vec<f64> = (0..accel.len()).map(|i| data.time(i)).collect();
         hbis::report::figures::fit_figure(
             path,

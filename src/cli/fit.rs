@@ -141,7 +141,6 @@ pub fn run(a: Args) -> Result<()> {
     Ok(())
 }
 
-/// Runs the study with a progress bar on stderr when it is a terminal.
 /// Where the release is and how it was found, in one line.
 pub fn release_line(data: &Aligned) -> String {
     let first = data.t_first;
@@ -171,6 +170,7 @@ pub fn release_line(data: &Aligned) -> String {
     )
 }
 
+/// Runs the study with a progress bar on stderr when it is a terminal.
 pub fn run_fit(
     spec: ModelSpec,
     data: Aligned,

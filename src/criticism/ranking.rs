@@ -263,7 +263,7 @@ pub fn rank_candidates(
 ) -> Result<Vec<RankedCandidate>, CriticismError> {
     let cands = candidates(current, &fit.theta);
     let mut model_now = vec![0.0; data.a.len()];
-    current.accel_grid_into(&fit.theta, data.lag, data.dt, &mut model_now)?;
+    data.model_accel_into(current, &fit.theta, &mut model_now)?;
     let r: Vec<f64> = data.a.iter().zip(&model_now).map(|(a, m)| a - m).collect();
     let sigma2 = r.iter().map(|v| v * v).sum::<f64>() / r.len() as f64;
     let nuisance = jacobian(current, &fit.theta, &model_now, data);
@@ -361,10 +361,7 @@ fn score_test(
         } else {
             start[k] - step
         };
-        if model
-            .accel_grid_into(&probe, data.lag, data.dt, &mut shifted)
-            .is_err()
-        {
+        if data.model_accel_into(model, &probe, &mut shifted).is_err() {
             continue;
         }
         let g = nalgebra::DVector::from_iterator(
@@ -404,10 +401,7 @@ fn jacobian(
         } else {
             theta[k] - step
         };
-        if model
-            .accel_grid_into(&x, data.lag, data.dt, &mut shifted)
-            .is_err()
-        {
+        if data.model_accel_into(model, &x, &mut shifted).is_err() {
             continue;
         }
         let c = nalgebra::DVector::from_iterator(n, shifted.iter().zip(accel).map(|(s, a)| s - a));
@@ -456,7 +450,7 @@ pub fn diagnosis_of(
     data: &Aligned,
 ) -> Result<Diagnostics, CriticismError> {
     let mut accel = vec![0.0; data.a.len()];
-    model.accel_grid_into(&fit.theta, data.lag, data.dt, &mut accel)?;
+    data.model_accel_into(model, &fit.theta, &mut accel)?;
     let spec = model.spec();
     let base = spec
         .params_from_slice(&fit.theta[..model.n_spec()])

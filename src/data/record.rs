@@ -24,6 +24,8 @@ use std::path::Path;
 
 use thiserror::Error;
 
+use crate::model::{ForwardModel, SimError};
+
 /// Why a record could not be read or used.
 #[derive(Debug, Error)]
 pub enum RecordError {
@@ -157,6 +159,18 @@ impl Aligned {
     /// `v` (model or record, fit frame) in the record's own sign.
     pub fn in_record_sign(&self, v: &[f64]) -> Vec<f64> {
         v.iter().map(|x| self.polarity * x).collect()
+    }
+
+    /// `model`'s acceleration at `theta` on this record's samples (`lag +
+    /// i dt` after the release), written into `out`: every comparison of a
+    /// model with the record goes through here, so none forgets the lag.
+    pub fn model_accel_into<M: ForwardModel + ?Sized>(
+        &self,
+        model: &M,
+        theta: &[f64],
+        out: &mut [f64],
+    ) -> Result<(), SimError> {
+        model.accel_grid_into(theta, self.lag, self.dt, out)
     }
 
     /// Time of sample `i` in the record's clock (s).

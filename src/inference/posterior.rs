@@ -183,12 +183,8 @@ impl<M: ForwardModel> Posterior<M> {
     /// The model's acceleration on the record's grid.
     pub fn model_accel(&self, theta: &[f64]) -> Result<Vec<f64>, SimError> {
         let mut out = vec![0.0; self.data.a.len()];
-        self.model.accel_grid_into(
-            &theta[..self.n_model],
-            self.data.lag,
-            self.data.dt,
-            &mut out,
-        )?;
+        self.data
+            .model_accel_into(&self.model, &theta[..self.n_model], &mut out)?;
         Ok(out)
     }
 
@@ -220,13 +216,8 @@ impl<M: ForwardModel> Posterior<M> {
             // A model that refuses the parameters (or cannot finish them) puts
             // no mass there.
             if self
-                .model
-                .accel_grid_into(
-                    &theta[..self.n_model],
-                    self.data.lag,
-                    self.data.dt,
-                    &mut buf,
-                )
+                .data
+                .model_accel_into(&self.model, &theta[..self.n_model], &mut buf)
                 .is_err()
             {
                 return None;
