@@ -54,5 +54,28 @@ fn record_100k(c: &mut Criterion) {
     });
 }
 
-criterion_group!(benches, record_2001, growth, record_100k);
+/// The same record through the `ForwardModel` trait, as inference calls it
+/// (parameters from a vector, the system resolved on every call).
+fn forward_model(c: &mut Criterion) {
+    use hbis::model::ForwardModel;
+    let spec = ModelSpec::FULL;
+    let theta = Params::table_8_1(5).unwrap().to_theta(&spec);
+    let mut out = vec![0.0; 2001];
+    c.bench_function("spec_test5_2001", |b| {
+        b.iter(|| spec.accel_into(black_box(&theta), 0.005, &mut out).unwrap())
+    });
+    let model = hbis::model::Model::from(ModelSpec::FULL);
+    let theta_m = model
+        .theta_from_params(&Params::table_8_1(5).unwrap(), &[])
+        .unwrap();
+    c.bench_function("model_test5_2001", |b| {
+        b.iter(|| {
+            model
+                .accel_into(black_box(&theta_m), 0.005, &mut out)
+                .unwrap()
+        })
+    });
+}
+
+criterion_group!(benches, record_2001, growth, record_100k, forward_model);
 criterion_main!(benches);

@@ -8,8 +8,10 @@
 //! q'' + 2 zs ws q' + ws^2 q = -a_base,     a_record = a_base + gamma q''
 //! ```
 //!
-//! Implementing `Effect` is all it takes: the closed-form solver and the
-//! inference code are untouched.
+//! Implementing `OutputComponent` is all it takes: the closed-form solver
+//! and the inference code are untouched, and once registered the
+//! component is parsed, fitted and offered by `diagnose` and the ladder
+//! like a built-in one.
 //!
 //! ```sh
 //! cargo run --release --example custom_effect
@@ -17,27 +19,27 @@
 
 use std::sync::Arc;
 
-use hbis::criticism::{diagnosis_of, fit_model, Composite, Effect};
+use hbis::criticism::{diagnosis_of, fit_model};
 use hbis::data::synthesize;
 use hbis::inference::MapSettings;
-use hbis::model::{ModelSpec, Params};
+use hbis::model::{Model, OutputComponent, ParamSpec, Params, Registry};
 use rand::{rngs::StdRng, SeedableRng};
 
 /// A superstructure mode seen by the accelerometer.
 pub struct Superstructure;
 
-impl Effect for Superstructure {
+impl OutputComponent for Superstructure {
     fn name(&self) -> &str {
         "superstructure"
     }
-    fn param_names(&self) -> Vec<String> {
-        vec!["fs".into(), "zs".into(), "gamma".into()]
-    }
-    fn bounds(&self) -> Vec<(f64, f64)> {
-        vec![(1.0, 20.0), (0.005, 0.2), (0.0, 1.0)]
-    }
-    fn neutral(&self) -> Vec<f64> {
-        vec![5.0, 0.05, 0.0]
+    fn params(&self) -> Vec<ParamSpec> {
+        vec![
+            ParamSpec::new("fs", "Hz", (1.0, 20.0), 5.0).meaning("frequency of the mode"),
+            ParamSpec::new("zs", "-", (0.005, 0.2), 0.05).meaning("damping ratio of the mode"),
+            // gamma = 0 switches the mode off.
+            ParamSpec::new("gamma", "-", (0.0, 1.0), 0.0)
+                .meaning("share of the mode in the record"),
+        ]
     }
     fn meaning(&self) -> &str {
         "a flexible superstructure mode: ringing at fs after every friction jump"
@@ -70,32 +72,44 @@ impl Effect for Superstructure {
 }
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let spec = ModelSpec::FULL;
-    let with_mode = Composite::new(spec, vec![Arc::new(Superstructure)]);
-    let mut truth = Params::table_8_1(5).unwrap().to_theta(&spec);
-    truth.extend([6.0, 0.03, 0.3]);
+    let mut registry = Registry::builtin();
+    registry.register_output(Arc::new(Superstructure))?;
+    let with_mode = registry.parse("trilinear+lcfm+viscous+superstructure")?;
+    let truth = with_mode.theta_from_params(
+        &Params::table_8_1(5).unwrap(),
+        &[("fs", 6.0), ("zs", 0.03), ("gamma", 0.3)],
+    )?;
     let mut rng = StdRng::seed_from_u64(8);
     let data = synthesize(&with_mode, &truth, 0.005, 2001, 0.015, &mut rng)?
         .record
         .aligned(None)?;
     let settings = MapSettings::default();
-    let rigid = Composite::new(spec, vec![]);
+    let rigid = Model::parse("trilinear+lcfm+viscous")?;
     let fit = fit_model(&rigid, &data, None, &settings, 1)?;
     println!(
         "rigid model: e2 = {:.5}\n{}",
         fit.e2,
         diagnosis_of(&rigid, &fit, &data)?.verdict
     );
-    let mut start = fit.theta.clone();
-    start.extend(Superstructure.neutral());
-    let flexible = fit_model(&with_mode, &data, Some(start), &settings, 2)?;
+    // The registry carries the rigid MAP into the flexible model, the mode
+    // switched off (gamma = 0).
+    let candidate = registry
+        .candidates(&rigid, &fit.theta)
+        .into_iter()
+        .find(|c| c.effect == "superstructure")
+        .expect("a registered component is a candidate");
+    let flexible = fit_model(&with_mode, &data, Some(candidate.start), &settings, 2)?;
     println!(
         "\nwith the superstructure mode: e2 = {:.5}, BIC {:+.1}",
         flexible.e2,
         flexible.bic - fit.bic
     );
-    for (n, v) in flexible.names.iter().zip(&flexible.theta).skip(9) {
-        println!("  {n} = {v:.4}");
+    for name in ["fs", "zs", "gamma"] {
+        let v = with_mode
+            .layout()
+            .get(&flexible.theta, name)
+            .unwrap_or(f64::NAN);
+        println!("  {name} = {v:.4}");
     }
     Ok(())
 }

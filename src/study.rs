@@ -10,8 +10,8 @@
 //! use hbis::study::{fit_record, FitOptions};
 //!
 //! let data = Record::read("record.csv".as_ref())?.aligned(None)?;
-//! let spec = "trilinear+lcfm+viscous".parse()?;
-//! let fit = fit_record(spec, data, None, Noise::White, &FitOptions::default(), &mut |_| {})?;
+//! let model: hbis::model::Model = "trilinear+lcfm+viscous+offset".parse()?;
+//! let fit = fit_record(model, data, None, Noise::White, &FitOptions::default(), &mut |_| {})?;
 //! for (name, s) in fit.names().iter().zip(fit.summaries.as_ref().unwrap()) {
 //!     println!("{name}: {:.5} ± {:.5}", s.mean, s.sd);
 //! }
@@ -26,15 +26,14 @@ use thiserror::Error;
 
 use crate::data::Aligned;
 use crate::inference::identifiability::{self, Identifiability, Segments};
-use crate::inference::release::{fit_lag, LagError};
+use crate::inference::pipeline::{compare, fit_map, laplace_evidence, Comparison, PipelineError};
 use crate::inference::summary::{covariance, ParamSummary};
 use crate::inference::{
-    conditional_scales, find_map, sample_posterior, MapError, MapEstimate, MapSettings, Noise,
-    Posterior, PosteriorError, PosteriorSample, PriorError, Priors, Progress, SampleError,
-    SampleSettings,
+    conditional_scales, sample_posterior, MapError, MapEstimate, MapSettings, Noise, Posterior,
+    PosteriorError, PosteriorSample, PriorError, Priors, Progress, SampleError, SampleSettings,
 };
 use crate::model::physical::Physical;
-use crate::model::{ModelSpec, Response, SimError};
+use crate::model::{ForwardModel, Model, ModelSpec, Response, SimError};
 
 /// Why a study failed.
 #[derive(Debug, Error)]
@@ -54,9 +53,9 @@ pub enum StudyError {
     /// Simulating at the MAP.
     #[error("simulation at the MAP")]
     Sim(#[from] SimError),
-    /// Placing a release detected between two samples.
-    #[error("placing the release between samples")]
-    Lag(#[from] LagError),
+    /// A stage shared with criticism (MAP, release placement, evidence).
+    #[error(transparent)]
+    Pipeline(#[from] PipelineError),
     /// Released force and static friction are inconsistent.
     #[error("physical quantities")]
     Physical(#[from] crate::model::physical::PhysicalError),
@@ -77,6 +76,9 @@ pub struct FitOptions {
     pub forces: Option<(f64, f64)>,
     /// Text that identifies the record in the checkpoint's fingerprint.
     pub label: String,
+    /// Also compute the Laplace log-evidence at the MAP (a short ensemble
+    /// run).
+    pub evidence: bool,
 }
 
 impl Default for FitOptions {
@@ -88,6 +90,7 @@ impl Default for FitOptions {
             checkpoint: None,
             forces: None,
             label: String::new(),
+            evidence: false,
         }
     }
 }
@@ -96,9 +99,13 @@ impl Default for FitOptions {
 #[derive(Debug, Clone)]
 pub struct Fit {
     /// The posterior (model, record, priors, noise).
-    pub posterior: Posterior<ModelSpec>,
+    pub posterior: Posterior<Model>,
     /// The MAP.
     pub map: MapEstimate,
+    /// BIC and the maximised log-likelihood at the MAP.
+    pub comparison: Comparison,
+    /// Laplace log-evidence at the MAP, if asked for.
+    pub log_evidence: Option<f64>,
     /// The posterior sample, if run.
     pub sample: Option<PosteriorSample>,
     /// Per-parameter summaries of the sample.
@@ -120,62 +127,48 @@ impl Fit {
     }
 }
 
-/// Fits `data` with `spec`: MAP, then (if asked) the posterior and its
-/// reports. `priors = None` uses the defaults.
+/// Fits `data` with `model`: MAP, then (if asked) the posterior and its
+/// reports. `priors = None` uses the defaults the model's components
+/// declare.
 pub fn fit_record(
-    spec: ModelSpec,
+    model: impl Into<Model>,
     data: Aligned,
     priors: Option<Priors>,
     noise: Noise,
     options: &FitOptions,
     progress: &mut dyn FnMut(Progress),
 ) -> Result<Fit, StudyError> {
-    let names = Posterior::names_for(&spec, noise);
-    let priors = match priors {
-        Some(p) => p,
-        None => Priors::defaults(&names)?,
-    };
+    let model: Model = model.into();
+    let priors = priors.unwrap_or_else(|| Posterior::default_priors(&model, noise));
     let mut rng = StdRng::seed_from_u64(options.seed);
-    let clock = std::time::Instant::now();
-    let mut preparation = 0;
-    let mut map_settings = options.map.clone();
-    let mut data = data;
-    if noise == Noise::Ar1 || data.lag_unknown() {
-        // Correlated noise can absorb a misfit, which gives the search broad
-        // false basins; start it from the white-noise MAP with rho = 0,
-        // which nests in the AR(1) model. A release detected between two
-        // samples is placed with the model, from the white-noise MAP.
-        let n_model = spec.param_names().len();
-        // The user's priors on the model parameters, without `rho`.
-        let white_priors = Priors::from_parts(
-            names[..n_model].to_vec(),
-            priors.priors()[..n_model].to_vec(),
-        )
-        .expect("as many priors as names");
-        let white = Posterior::new(spec, data.clone(), white_priors, Noise::White)?;
-        let white_map = find_map(&white, &options.map, &mut rng)?;
-        preparation += white_map.evaluations();
-        let mut start = white_map.theta;
-        if data.lag_unknown() {
-            let lagged = fit_lag(&white, &start)?;
-            preparation += lagged.evaluations;
-            data = data.with_lag(lagged.lag);
-            start = lagged.theta;
-        }
-        if noise == Noise::Ar1 {
-            start.push(0.0);
-        }
-        map_settings = map_settings.with_initial(Some(start))?;
-    }
-    let posterior = Posterior::new(spec, data, priors, noise)?;
-    let mut map = find_map(&posterior, &map_settings, &mut rng)?;
-    map.preparation_evaluations = preparation;
-    map.wall_time = clock.elapsed().as_secs_f64();
+    let fit = fit_map(
+        model.clone(),
+        data,
+        priors,
+        noise,
+        &options.map,
+        None,
+        &mut rng,
+    )?;
+    let (posterior, map) = (fit.posterior, fit.map);
+    let names = posterior.names().to_vec();
+    let spec = model.spec();
+    let comparison = compare(&posterior, &map.theta)?;
+    let log_evidence = if options.evidence {
+        Some(laplace_evidence(
+            &posterior,
+            &map.theta,
+            map.eval.log_posterior,
+            options.seed ^ 0x1A91_ACE0,
+        )?)
+    } else {
+        None
+    };
     let physical_map = match options.forces {
         Some((f, s)) => Some(Physical::from_params(
             &spec,
-            &spec
-                .params_from_slice(&map.theta[..spec.param_names().len()])
+            &model
+                .core_params(posterior.model_part(&map.theta))
                 .map_err(SimError::from)?,
             f,
             s,
@@ -185,6 +178,8 @@ pub fn fit_record(
     let mut fit = Fit {
         posterior,
         map,
+        comparison,
+        log_evidence,
         sample: None,
         summaries: None,
         covariance: None,
@@ -199,7 +194,7 @@ pub fn fit_record(
     let range: Vec<f64> = lo.iter().zip(&hi).map(|(l, h)| h - l).collect();
     let scale =
         conditional_scales(&fit.posterior, &fit.map.theta, &range).map_err(SampleError::from)?;
-    let label = format!("{spec} {} {}", noise.as_str(), options.label);
+    let label = format!("{} {} {}", model.name(), noise.as_str(), options.label);
     let sample = sample_posterior(
         &fit.posterior,
         &names,
@@ -223,7 +218,11 @@ pub fn fit_record(
         .collect();
     let effects = effects(&fit.posterior, &fit.map.theta, &summaries)?;
     let sigma = (fit.map.eval.sse / fit.posterior.data().a.len() as f64).sqrt();
-    let segments = segments(&spec, &fit.map.theta, fit.posterior.data())?;
+    let segments = segments(
+        &model,
+        fit.posterior.model_part(&fit.map.theta),
+        fit.posterior.data(),
+    )?;
     let ident = identifiability::report(
         &names,
         &summaries,
@@ -234,7 +233,7 @@ pub fn fit_record(
         Some(&segments),
     );
     if let Some((f, s)) = options.forces {
-        fit.physical = Some(physical_posterior(&spec, &sample, f, s)?);
+        fit.physical = Some(physical_posterior(&fit.posterior, &sample, f, s)?);
     }
     fit.summaries = Some(summaries);
     fit.covariance = Some(cov);
@@ -246,15 +245,15 @@ pub fn fit_record(
 /// Change of the model acceleration for a one-sd change of each parameter
 /// (central differences at the MAP, kept inside the prior's support).
 fn effects(
-    posterior: &Posterior<ModelSpec>,
+    posterior: &Posterior<Model>,
     theta: &[f64],
     summaries: &[ParamSummary],
 ) -> Result<Vec<Vec<f64>>, StudyError> {
     let (lo, hi) = posterior.priors().box_bounds();
     let mut out = Vec::with_capacity(theta.len());
-    let n_model = posterior.model().param_names().len();
+    let noise = posterior.layout().blocks()[1].range();
     for k in 0..theta.len() {
-        if k >= n_model {
+        if noise.contains(&k) {
             // Noise parameters do not move the model.
             out.push(vec![0.0; posterior.data().a.len()]);
             continue;
@@ -276,14 +275,12 @@ fn effects(
     Ok(out)
 }
 
-/// Phase, half-cycle and closeness to reversals of each sample at the MAP.
-pub fn segments(spec: &ModelSpec, theta: &[f64], data: &Aligned) -> Result<Segments, StudyError> {
-    let n_model = spec.param_names().len();
-    let p = spec
-        .params_from_slice(&theta[..n_model])
-        .map_err(SimError::from)?;
+/// Phase, half-cycle and closeness to reversals of each sample at the MAP
+/// `theta` (the model's parameters), from the closed-form core's motion.
+pub fn segments(model: &Model, theta: &[f64], data: &Aligned) -> Result<Segments, StudyError> {
+    let p = model.core_params(theta).map_err(SimError::from)?;
     let duration = data.duration();
-    let r = Response::simulate(spec, &p, duration)?;
+    let r = Response::simulate(&model.spec(), &p, duration)?;
     let samples = r.sample_grid(data.dt)?;
     let n = data.a.len().min(samples.len());
     let mut half_cycle = vec![0usize; n];
@@ -323,20 +320,21 @@ pub fn segments(spec: &ModelSpec, theta: &[f64], data: &Aligned) -> Result<Segme
 
 /// Table 8.2 quantities for (a thinned set of) posterior draws.
 fn physical_posterior(
-    spec: &ModelSpec,
+    posterior: &Posterior<Model>,
     sample: &PosteriorSample,
     released: f64,
     friction: f64,
 ) -> Result<Vec<(String, ParamSummary)>, StudyError> {
-    let n_model = spec.param_names().len();
+    let model = posterior.model();
+    let spec = model.spec();
     let points = sample.points();
     let stride = (points.len() / 20_000).max(1);
     let mut cols: Vec<Vec<f64>> = vec![Vec::new(); 6];
     for x in points.iter().step_by(stride) {
-        let p = spec
-            .params_from_slice(&x[..n_model])
+        let p = model
+            .core_params(posterior.model_part(x))
             .map_err(SimError::from)?;
-        let q = Physical::from_params(spec, &p, released, friction)?;
+        let q = Physical::from_params(&spec, &p, released, friction)?;
         for (c, v) in cols.iter_mut().zip([q.m, q.k0, q.k1, q.k2, q.kf, q.c]) {
             c.push(v);
         }

@@ -8,12 +8,10 @@
 
 use std::sync::Arc;
 
-use hbis::criticism::{
-    diagnosis_of, fit_model, ladder, rank_candidates, Composite, Effect, Offset,
-};
+use hbis::criticism::{diagnose_model, diagnosis_of, fit_model, ladder};
 use hbis::data::{synthesize, Aligned};
 use hbis::inference::MapSettings;
-use hbis::model::{ForwardModel, ModelSpec, Params};
+use hbis::model::{ForwardModel, Model, ModelSpec, OutputComponent, Params, Registry};
 use rand::{rngs::StdRng, SeedableRng};
 
 #[allow(dead_code)]
@@ -22,7 +20,7 @@ mod custom_effect;
 
 /// A record from `model` at `truth` with 1.5 % noise, and its noise floor
 /// (the `e2` of the truth on it).
-fn record(model: &Composite, truth: &[f64], seed: u64) -> (Aligned, f64) {
+fn record(model: &Model, truth: &[f64], seed: u64) -> (Aligned, f64) {
     let mut rng = StdRng::seed_from_u64(seed);
     let data = synthesize(model, truth, 0.005, 2001, 0.015, &mut rng)
         .unwrap()
@@ -42,23 +40,16 @@ fn record(model: &Composite, truth: &[f64], seed: u64) -> (Aligned, f64) {
 }
 
 fn hidden(effect: &str, start: &str, test: u32, offset: Option<f64>) {
-    let spec = ModelSpec::FULL;
-    let mut truth = Params::table_8_1(test).unwrap().to_theta(&spec);
-    let effects: Vec<Arc<dyn Effect>> = match offset {
-        Some(a) => {
-            truth.push(a);
-            vec![Arc::new(Offset)]
-        }
-        None => vec![],
-    };
-    hidden_in(
-        effect,
-        start,
-        &Composite::new(spec, effects),
-        &truth,
-        40 + test as u64,
-        1.15,
-    );
+    let model = Model::parse(match offset {
+        Some(_) => "trilinear+lcfm+viscous+offset",
+        None => "trilinear+lcfm+viscous",
+    })
+    .unwrap();
+    let p = Params::table_8_1(test).unwrap();
+    let truth = model
+        .theta_from_params(&p, &[("a_off", offset.unwrap_or(0.0))])
+        .unwrap();
+    hidden_in(effect, start, &model, &truth, 40 + test as u64, 1.15);
 }
 
 /// `effect` hidden in a record made by `truth_model`; the starting model's
@@ -66,16 +57,16 @@ fn hidden(effect: &str, start: &str, test: u32, offset: Option<f64>) {
 fn hidden_in(
     effect: &str,
     start: &str,
-    truth_model: &Composite,
+    truth_model: &Model,
     truth: &[f64],
     seed: u64,
     min_start: f64,
 ) {
     let (data, floor) = record(truth_model, truth, seed);
-    let model = Composite::new(start.parse().unwrap(), vec![]);
+    let model = Model::parse(start).unwrap();
     let settings = MapSettings::default();
-    let fit = fit_model(&model, &data, None, &settings, 1).unwrap();
-    let ranked = rank_candidates(&model, &fit, &data, &settings, 2).unwrap();
+    let (fit, _, ranked) =
+        diagnose_model(&Registry::builtin(), &model, &data, &settings, 1).unwrap();
     let names: Vec<&str> = ranked.iter().map(|c| c.effect.as_str()).collect();
     assert_eq!(names[0], effect, "ranking {names:?}");
     assert!(ranked[0].supported);
@@ -118,10 +109,13 @@ fn hidden_accelerometer_offset_is_found() {
 /// by BIC.
 #[test]
 fn hidden_velocity_dependent_friction_is_found() {
-    let spec = ModelSpec::FULL;
-    let model = Composite::new(spec, vec![]).with_velocity_friction();
-    let mut truth = Params::table_8_1(5).unwrap().to_theta(&spec);
-    truth.extend([0.3, 0.05]);
+    let model = Model::parse("trilinear+lcfm+viscous+velocity-friction").unwrap();
+    let truth = model
+        .theta_from_params(
+            &Params::table_8_1(5).unwrap(),
+            &[("r_mu", 0.3), ("v_t", 0.05)],
+        )
+        .unwrap();
     hidden_in(
         "velocity-friction",
         "trilinear+lcfm+viscous",
@@ -136,9 +130,17 @@ fn hidden_velocity_dependent_friction_is_found() {
 fn ladder_from_bilinear_coulomb_recovers_the_full_model() {
     let spec = ModelSpec::FULL;
     let truth = Params::table_8_1(8).unwrap().to_theta(&spec);
-    let (data, floor) = record(&Composite::new(spec, vec![]), &truth, 4);
-    let start = Composite::new("bilinear+coulomb".parse().unwrap(), vec![]);
-    let steps = ladder(start, &data, &MapSettings::default(), 1, 6).unwrap();
+    let (data, floor) = record(&spec.into(), &truth, 4);
+    let start = Model::parse("bilinear+coulomb").unwrap();
+    let steps = ladder(
+        &Registry::builtin(),
+        start,
+        &data,
+        &MapSettings::default(),
+        1,
+        6,
+    )
+    .unwrap();
     let last = steps.last().unwrap();
     assert_eq!(
         last.model,
@@ -157,11 +159,16 @@ fn ladder_from_bilinear_coulomb_recovers_the_full_model() {
 #[test]
 fn an_unmodelled_superstructure_mode_is_named_with_its_frequency() {
     let spec = ModelSpec::FULL;
-    let mode: Arc<dyn Effect> = Arc::new(custom_effect::Superstructure);
-    let mut truth = Params::table_8_1(5).unwrap().to_theta(&spec);
-    truth.extend([4.5, 0.03, 0.3]);
-    let (data, _) = record(&Composite::new(spec, vec![mode]), &truth, 8);
-    let rigid = Composite::new(spec, vec![]);
+    let mode: Arc<dyn OutputComponent> = Arc::new(custom_effect::Superstructure);
+    let rigid = Model::from(spec);
+    let flexible = rigid.with_output(mode);
+    let truth = flexible
+        .theta_from_params(
+            &Params::table_8_1(5).unwrap(),
+            &[("fs", 4.5), ("zs", 0.03), ("gamma", 0.3)],
+        )
+        .unwrap();
+    let (data, _) = record(&flexible, &truth, 8);
     let fit = fit_model(&rigid, &data, None, &MapSettings::default(), 1).unwrap();
     let d = diagnosis_of(&rigid, &fit, &data).unwrap();
     assert!(

@@ -1,11 +1,11 @@
 //! Laplace's approximation of the log-evidence (used to rank effects) against
 //! transitional MCMC on a real posterior.
 
-use hbis::criticism::{fit_model, priors_for, Composite};
+use hbis::criticism::{fit_model, priors_for};
 use hbis::data::synthesize;
 use hbis::inference::tmcmc::{tmcmc, TmcmcSettings};
 use hbis::inference::{MapSettings, Noise, Posterior};
-use hbis::model::{ModelSpec, Params};
+use hbis::model::{ForwardModel, Model, ModelSpec, Params};
 use rand::{rngs::StdRng, SeedableRng};
 
 #[test]
@@ -21,7 +21,7 @@ fn laplace_evidence_agrees_with_tmcmc() {
         .record
         .aligned(None)
         .unwrap();
-    let model = Composite::new(spec, vec![]);
+    let model = Model::from(spec);
     let fit = fit_model(&model, &data, None, &MapSettings::default(), 3).unwrap();
     let post = Posterior::new(model.clone(), data, priors_for(&model), Noise::White).unwrap();
     let (lower, upper): (Vec<f64>, Vec<f64>) = model.bounds().into_iter().unzip();

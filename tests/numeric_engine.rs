@@ -5,8 +5,7 @@
 
 mod common;
 
-use hbis::model::numeric::NumericSystem;
-use hbis::model::{Response, SimError};
+use hbis::model::{Model, Response, SimError};
 
 #[test]
 fn numerical_engine_matches_the_closed_form_without_velocity_dependence() {
@@ -23,7 +22,9 @@ fn numerical_engine_matches_the_closed_form_without_velocity_dependence() {
         };
         let closed = r.sample_grid(case.dt).unwrap();
         let mut numeric = vec![0.0; case.n];
-        match NumericSystem::new(&case.spec, &case.params, None).accel_into(case.dt, &mut numeric) {
+        let model = Model::from(case.spec);
+        let theta = model.theta_from_params(&case.params, &[]).unwrap();
+        match model.numeric_grid_into(&theta, 0.0, case.dt, &mut numeric) {
             Ok(()) => {}
             Err(e) => panic!("{case:?}: numeric engine failed: {e}"),
         }
@@ -66,8 +67,10 @@ fn both_engines_sample_a_shifted_grid_alike() {
         .accel_grid_into(0.0031, 0.005, &mut closed, &SimOptions::default())
         .unwrap();
     let mut numeric = vec![0.0; 2000];
-    NumericSystem::new(&spec, &p, None)
-        .accel_grid_into(0.0031, 0.005, &mut numeric)
+    let model = Model::from(spec);
+    let theta = model.theta_from_params(&p, &[]).unwrap();
+    model
+        .numeric_grid_into(&theta, 0.0031, 0.005, &mut numeric)
         .unwrap();
     let mut unshifted = vec![0.0; 2000];
     System::new(&spec, &p)

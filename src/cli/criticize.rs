@@ -6,12 +6,11 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
 use hbis::criticism::{
-    diagnosis_of, fit_model, ladder_observed, place_release, rank_candidates, Composite,
-    Diagnostics, ModelFit, RankedCandidate, Step,
+    diagnose_model, ladder_observed, place_release, Diagnostics, ModelFit, RankedCandidate, Step,
 };
 use hbis::data::{Aligned, Record, ReleaseSource};
 use hbis::inference::MapSettings;
-use hbis::model::ForwardModel;
+use hbis::model::{ForwardModel, Model, Registry};
 use hbis::report::json::DataInfo;
 use serde::Serialize;
 
@@ -37,8 +36,8 @@ pub struct Args {
     t0: Option<f64>,
 }
 
-fn load(a: &Args) -> Result<(Composite, Aligned)> {
-    let model = Composite::parse(&a.model).with_context(|| format!("--model `{}`", a.model))?;
+fn load(a: &Args) -> Result<(Model, Aligned)> {
+    let model = super::inputs::model(&a.model)?;
     let record =
         Record::read(&a.data).with_context(|| format!("in record {}", a.data.display()))?;
     let data = record
@@ -72,6 +71,7 @@ struct DiagnosisReport<'a> {
     log_evidence: f64,
     map: std::collections::BTreeMap<String, f64>,
     candidates: &'a [RankedCandidate],
+    caution: Option<String>,
     residual: &'a Diagnostics,
     verdict: &'a str,
 }
@@ -83,10 +83,9 @@ pub fn diagnose(a: Args) -> Result<()> {
         .clone()
         .unwrap_or_else(|| PathBuf::from("hbis-diagnose"));
     let settings = MapSettings::default();
-    let fit = fit_model(&model, &data, None, &settings, a.seed).context("fit")?;
-    let diagnosis = diagnosis_of(&model, &fit, &data)?;
-    let ranked = rank_candidates(&model, &fit, &data, &settings, a.seed.wrapping_add(1))
-        .context("candidates")?;
+    let (fit, diagnosis, ranked) =
+        diagnose_model(&Registry::builtin(), &model, &data, &settings, a.seed)
+            .context("diagnosis")?;
     std::fs::create_dir_all(&out)
         .with_context(|| format!("cannot create folder {}", out.display()))?;
     let report = DiagnosisReport {
@@ -104,6 +103,7 @@ pub fn diagnose(a: Args) -> Result<()> {
             .zip(fit.theta.iter().copied())
             .collect(),
         candidates: &ranked,
+        caution: hbis::criticism::caution(&ranked),
         residual: &diagnosis,
         verdict: &diagnosis.verdict,
     };
@@ -149,6 +149,7 @@ struct LadderStep<'a> {
     lag: f64,
     verdict: &'a str,
     candidates: &'a [RankedCandidate],
+    caution: Option<&'a str>,
 }
 
 pub fn run_ladder(a: Args) -> Result<()> {
@@ -176,9 +177,12 @@ pub fn run_ladder(a: Args) -> Result<()> {
     Ok(())
 }
 
-/// Runs the ladder (at most four effects are added: the catalog's size),
-/// with a line per step on standard error when it is a terminal.
-pub fn ladder_steps(model: Composite, data: &Aligned, seed: u64) -> Result<Vec<Step>> {
+/// Most effects the ladder adds.
+const MAX_LADDER_STEPS: usize = 6;
+
+/// Runs the ladder (at most [`MAX_LADDER_STEPS`] effects are added), with a
+/// line per step on standard error when it is a terminal.
+pub fn ladder_steps(model: Model, data: &Aligned, seed: u64) -> Result<Vec<Step>> {
     let live = std::io::stderr().is_terminal();
     let mut report = |s: &Step| {
         if !live {
@@ -190,7 +194,17 @@ pub fn ladder_steps(model: Composite, data: &Aligned, seed: u64) -> Result<Vec<S
         };
         eprintln!("  fitted {}: e2 = {:.5}; {next}", s.model, s.e2);
     };
-    ladder_observed(model, data, &MapSettings::default(), seed, 4, &mut report).context("ladder")
+    let registry = Registry::builtin();
+    ladder_observed(
+        &registry,
+        model,
+        data,
+        &MapSettings::default(),
+        seed,
+        MAX_LADDER_STEPS,
+        &mut report,
+    )
+    .context("ladder")
 }
 
 /// Writes ladder.json, ladder.png and one residual figure per step.
@@ -226,6 +240,7 @@ pub fn write_ladder(
                 lag: s.lag,
                 verdict: &s.diagnosis.verdict,
                 candidates: &s.candidates,
+                caution: s.caution.as_deref(),
             })
             .collect(),
     };
@@ -233,7 +248,7 @@ pub fn write_ladder(
     let path = out.join("ladder.json");
     std::fs::write(&path, &text).with_context(|| format!("cannot write {}", path.display()))?;
     for (k, s) in steps.iter().enumerate() {
-        let model = Composite::parse(&s.model)?;
+        let model = Registry::builtin().parse(&s.model)?;
         let at_lag = data.clone().with_lag(s.lag);
         residual_figure(&out.join(format!("step-{k}.png")), &model, &s.fit, &at_lag)?;
     }
@@ -247,7 +262,7 @@ pub fn write_ladder(
     Ok(text)
 }
 
-fn residual_figure(path: &Path, model: &Composite, fit: &ModelFit, data: &Aligned) -> Result<()> {
+fn residual_figure(path: &Path, model: &Model, fit: &ModelFit, data: &Aligned) -> Result<()> {
     #[cfg(feature = "figures")]
     {
         let mut accel = vec![0.0; data.a.len()];
@@ -307,6 +322,9 @@ pub fn print_diagnosis(
             }
         )?;
     }
+    if let Some(c) = hbis::criticism::caution(ranked) {
+        writeln!(out, "  caution: {c}")?;
+    }
     Ok(())
 }
 
@@ -326,6 +344,11 @@ pub fn print_ladder(out: &mut impl Write, steps: &[Step]) -> Result<()> {
             s.bic,
             s.log_evidence
         )?;
+    }
+    for (k, s) in steps.iter().enumerate() {
+        if let Some(c) = &s.caution {
+            writeln!(out, "caution at step {k}: {c}")?;
+        }
     }
     if let Some(last) = steps.last() {
         writeln!(out, "final verdict: {}", last.diagnosis.verdict)?;

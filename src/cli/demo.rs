@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
 use hbis::data::synthesize;
-use hbis::inference::{MapSettings, Noise, Posterior, Priors, SampleSettings};
+use hbis::inference::{MapSettings, Noise, Posterior, SampleSettings};
 use hbis::model::physical::Physical;
 use hbis::model::response::grid_len;
 use hbis::model::{ModelSpec, Params, PhaseKind, Response};
@@ -93,7 +93,7 @@ fn criticize(out: &mut impl Write, dir: &Path) -> Result<()> {
         path.display()
     )?;
     let data = syn.record.aligned(None)?;
-    let start = hbis::criticism::Composite::parse("bilinear+coulomb")?;
+    let start = hbis::model::Model::parse("bilinear+coulomb")?;
     let steps = super::criticize::ladder_steps(start, &data, SEED)?;
     super::criticize::print_ladder(out, &steps)?;
     let ladder_dir = dir.join("ladder");
@@ -140,7 +140,7 @@ fn identify(out: &mut impl Write, dir: &Path) -> Result<()> {
         record_path.display()
     )?;
     let data = syn.record.aligned(None)?;
-    let names = Posterior::names_for(&spec, Noise::White);
+    let model = hbis::model::Model::from(spec);
     let fit_dir = dir.join("fit");
     let options = FitOptions {
         seed: SEED,
@@ -149,11 +149,12 @@ fn identify(out: &mut impl Write, dir: &Path) -> Result<()> {
         checkpoint: Some(fit_dir.join("checkpoint")),
         forces: Some((RELEASED_FORCE_TEST3, STATIC_FRICTION)),
         label: record_path.display().to_string(),
+        evidence: false,
     };
     let fit = super::fit::run_fit(
-        spec,
+        model.clone(),
         data,
-        Priors::defaults(&names)?,
+        Posterior::default_priors(&model, Noise::White),
         Noise::White,
         &options,
     )?;
@@ -194,7 +195,7 @@ fn identify(out: &mut impl Write, dir: &Path) -> Result<()> {
         &fit,
         &fit_dir,
         &record_path.display().to_string(),
-        &spec,
+        &spec.to_string(),
         SEED,
         Noise::White,
     )?;

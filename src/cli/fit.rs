@@ -8,7 +8,7 @@ use hbis::data::{Aligned, Record};
 use hbis::inference::{
     MapEstimate, MapSettings, Noise, Posterior, Priors, Progress, SampleSettings,
 };
-use hbis::model::ModelSpec;
+use hbis::model::{ForwardModel, Model};
 use hbis::report::json::{DataInfo, FitReport};
 use hbis::study::{fit_record, predictive_band, Fit, FitOptions};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
@@ -20,7 +20,9 @@ pub struct Args {
     /// Record: CSV with columns `t` (s) and `a` (m/s^2), or whitespace-separated text.
     #[arg(long)]
     data: PathBuf,
-    /// Model spec, e.g. `trilinear+lcfm+viscous` or `bilinear+coulomb`.
+    /// Model: a spring law, optional friction law and damper, and any
+    /// catalog components, e.g. `trilinear+lcfm+viscous`,
+    /// `bilinear+coulomb` or `trilinear+lcfm+viscous+velocity-friction+offset`.
     #[arg(long, default_value = "trilinear+lcfm+viscous")]
     model: String,
     /// Prior file (JSON, or TOML if it ends in .toml); default: uniform within physical bounds.
@@ -65,10 +67,14 @@ pub struct Args {
     /// Static friction F_fS (kN), with --released-force.
     #[arg(long, requires = "released_force")]
     static_friction: Option<f64>,
+    /// Also compute the Laplace log-evidence at the MAP (`log_evidence` in
+    /// fit.json; a short ensemble run).
+    #[arg(long)]
+    evidence: bool,
 }
 
 pub fn run(a: Args) -> Result<()> {
-    let spec = inputs::spec(&a.model)?;
+    let model = inputs::model(&a.model)?;
     let noise = Noise::parse(&a.noise)
         .with_context(|| format!("--noise `{}`: expected `white` or `ar1`", a.noise))?;
     let record =
@@ -76,12 +82,12 @@ pub fn run(a: Args) -> Result<()> {
     let data = record
         .aligned(a.t0)
         .with_context(|| format!("in record {}", a.data.display()))?;
-    let names = Posterior::names_for(&spec, noise);
+    let defaults = Posterior::default_priors(&model, noise);
     let priors = match &a.prior {
-        Some(p) => {
-            Priors::read(&names, p).with_context(|| format!("in prior file {}", p.display()))?
-        }
-        None => Priors::defaults(&names)?,
+        Some(p) => defaults
+            .read(p)
+            .with_context(|| format!("in prior file {}", p.display()))?,
+        None => defaults,
     };
     let forces = match (a.released_force, a.static_friction) {
         (Some(f), Some(s)) => Some((f, s)),
@@ -106,12 +112,13 @@ pub fn run(a: Args) -> Result<()> {
         checkpoint: Some(a.out.join("checkpoint")),
         forces,
         label: a.data.display().to_string(),
+        evidence: a.evidence,
     };
     let mut err = std::io::stderr().lock();
     let lag_unknown = data.lag_unknown();
     writeln!(err, "{}", release_line(&data))?;
     drop(err);
-    let fit = run_fit(spec, data, priors, noise, &options)?;
+    let fit = run_fit(model.clone(), data, priors, noise, &options)?;
     let mut err = std::io::stderr().lock();
     if lag_unknown {
         let d = fit.posterior.data();
@@ -130,7 +137,7 @@ pub fn run(a: Args) -> Result<()> {
         &fit,
         &a.out,
         &a.data.display().to_string(),
-        &spec,
+        &model.name(),
         a.seed,
         noise,
     )?;
@@ -172,7 +179,7 @@ pub fn release_line(data: &Aligned) -> String {
 
 /// Runs the study with a progress bar on stderr when it is a terminal.
 pub fn run_fit(
-    spec: ModelSpec,
+    model: Model,
     data: Aligned,
     priors: Priors,
     noise: Noise,
@@ -197,7 +204,8 @@ pub fn run_fit(
             }
         }
     };
-    let fit = fit_record(spec, data, Some(priors), noise, options, &mut progress).context("fit")?;
+    let fit =
+        fit_record(model, data, Some(priors), noise, options, &mut progress).context("fit")?;
     if let Some(b) = bar {
         b.finish_and_clear();
     }
@@ -209,7 +217,7 @@ pub fn write_outputs(
     fit: &Fit,
     out: &Path,
     source: &str,
-    spec: &ModelSpec,
+    spec: &str,
     seed: u64,
     noise: Noise,
 ) -> Result<FitReport> {
@@ -226,19 +234,13 @@ pub fn write_outputs(
             let path = out.join(&name);
             let f = std::fs::File::create(&path)
                 .with_context(|| format!("cannot create {}", path.display()))?;
-            hbis::report::cmdstan::write_chain(
-                std::io::BufWriter::new(f),
-                sample,
-                e,
-                &spec.to_string(),
-                seed,
-            )
-            .with_context(|| format!("writing {}", path.display()))?;
+            hbis::report::cmdstan::write_chain(std::io::BufWriter::new(f), sample, e, spec, seed)
+                .with_context(|| format!("writing {}", path.display()))?;
             chain_files.push(name);
         }
     }
     let report = FitReport::from_fit(
-        &spec.to_string(),
+        spec,
         seed,
         noise,
         DataInfo::new(source, data),

@@ -3,9 +3,17 @@
 use std::path::Path;
 
 use anyhow::{Context, Result};
-use hbis::model::{ModelSpec, Params};
+use hbis::model::{Model, ModelSpec, Params, Registry};
 
-/// Parse a model spec argument.
+/// Parse a model argument with the built-in registry (core laws and every
+/// catalog component).
+pub fn model(s: &str) -> Result<Model> {
+    Registry::builtin()
+        .parse(s)
+        .with_context(|| format!("--model `{s}`"))
+}
+
+/// Parse a closed-form core spec argument (spring, friction, damper).
 pub fn spec(s: &str) -> Result<ModelSpec> {
     s.parse::<ModelSpec>()
         .with_context(|| format!("--model `{s}`"))

@@ -7,47 +7,48 @@
 //!   derivative of the acceleration with respect to it (one-sided finite
 //!   difference into its support), summed over the new parameters; about
 //!   chi-square with that many degrees of freedom if the effect is absent;
-//! - a **warm-started refit** (CMA-ES + polish, first run from the current
-//!   MAP with the effect off, so the fit can only improve; retried with the
-//!   new parameters moved into their support when the score test is large
-//!   but the refit gained nothing), giving `e2`, the
-//!   change of the maximised log-likelihood, of BIC and of the log-evidence
-//!   by Laplace's approximation at the MAP (Beck & Yuen 2004);
+//! - a **multi-start refit** (CMA-ES + polish): from the current MAP with
+//!   the effect off (so the fit can only improve), and from spread starts
+//!   with the new parameters at a quarter and three quarters of their range
+//!   (mid-range only on the numerical engine, which costs some 30 times the
+//!   closed form); the best is kept and the report says how many starts
+//!   reached it. It gives `e2`, the change of the maximised
+//!   log-likelihood, of BIC and of the log-evidence by Laplace's
+//!   approximation at the MAP (Beck & Yuen 2004);
 //! - the diagnostic signature it explains.
+//!
+//! A candidate that needs the numerical engine is compared with the current
+//! model refitted on that engine ([`Model::numerically`]): the engines
+//! place an event to about 1e-9 s, and a closed-form MAP can sit where a
+//! reversal falls on a sample instant, so one sample lands on the other
+//! side of a friction jump; any extra parameter can move the reversal back,
+//! which would pass for support. That baseline is also refitted from the
+//! current model's part of the best numerical refit when that is better.
 //!
 //! Candidates are ranked by BIC, best first. An effect is **supported**
 //! when it lowers BIC by more than 10 (Kass & Raftery's "very strong");
 //! otherwise it does not pay for its parameters.
 //!
-//! # Formula
-//! ```text
-//! ln L_hat = -(N/2) (ln(2 pi S/N) + 1)            (sigma profiled)
-//! BIC      = (d + 1) ln N - 2 ln L_hat             (d model parameters + sigma)
-//! ln Z     = ln p(D|theta*) + ln p(theta*) + (d/2) ln 2 pi + (1/2) ln det Sigma
-//! ```
-//! with `p(D|theta)` the marginal likelihood of `docs/inference.md` and
-//! `Sigma` the posterior covariance (the inverse Hessian of the negative
-//! log-posterior at the MAP in Laplace's approximation; here estimated by a
-//! short ensemble run, see [`fit_model`]). Checked against transitional MCMC
-//! (`inference::tmcmc`) in `tests/evidence.rs`. The evidence shares the
-//! constant of Jeffreys' improper prior on `sigma` across models of one
-//! record, so only differences mean anything.
+//! BIC, the maximised log-likelihood and the Laplace evidence are those of
+//! [`crate::inference::pipeline`], which `hbis fit` reports too; checked
+//! against transitional MCMC (`inference::tmcmc`) in `tests/evidence.rs`.
+//!
+//! The candidates come from a [`Registry`]: the built-in catalog, or one a
+//! library user extended with their own components.
 
 use rand::rngs::StdRng;
 use rand::{RngExt, SeedableRng};
 use serde::Serialize;
 use thiserror::Error;
 
-use super::effects::{candidates, Composite};
 use super::residuals::{diagnose, Diagnostics};
 use crate::data::Aligned;
-use crate::inference::summary::covariance;
-use crate::inference::Polish;
-use crate::inference::{
-    conditional_scales, find_map, sample_posterior, MapError, MapSettings, Noise, Posterior,
-    PosteriorError, Prior, Priors, SampleError, SampleSettings,
+use crate::inference::pipeline::{
+    compare, fit_map, laplace_evidence, Comparison, MapFit, PipelineError,
 };
-use crate::model::{ForwardModel, SimError};
+use crate::inference::Polish;
+use crate::inference::{MapError, MapSettings, Noise, Posterior, PosteriorError, Priors};
+use crate::model::{Candidate, ForwardModel, Model, Registry, SimError};
 
 /// Why a criticism step failed.
 #[derive(Debug, Error)]
@@ -55,21 +56,15 @@ pub enum CriticismError {
     /// The posterior.
     #[error(transparent)]
     Posterior(#[from] PosteriorError),
-    /// The MAP search.
+    /// The MAP search settings.
     #[error("MAP search")]
     Map(#[from] MapError),
     /// A simulation.
     #[error("simulation")]
     Sim(#[from] SimError),
-    /// The sampler's density (while computing scales).
-    #[error("conditional scales")]
-    Scales(#[from] crate::inference::ensemble::SamplerError),
-    /// The short posterior run of the Laplace approximation.
-    #[error("posterior covariance")]
-    Sample(#[from] SampleError),
-    /// Placing a release detected between two samples.
-    #[error("placing the release between samples")]
-    Lag(#[from] crate::inference::release::LagError),
+    /// A stage shared with `hbis fit` (MAP, release placement, evidence).
+    #[error(transparent)]
+    Pipeline(#[from] PipelineError),
 }
 
 /// A fitted model in the numbers the comparison needs.
@@ -115,40 +110,71 @@ pub struct RankedCandidate {
     pub supported: bool,
     /// The residual pattern it explains.
     pub signature: String,
+    /// Starts of the refit (the warm start and spread starts).
+    pub starts: usize,
+    /// How many of them reached the best refit (within one unit of
+    /// log-likelihood).
+    pub agreeing: usize,
     /// The refit.
     #[serde(skip)]
     pub fit: ModelFit,
     /// The extended model.
     #[serde(skip)]
-    pub composite: Composite,
+    pub extended: Model,
 }
 
 /// CMA-ES budget of a refit on the numerical engine.
 pub const NUMERIC_BUDGET: usize = 20_000;
 
-/// Score above which a refit without gain is retried from a moved start
-/// (the 0.1 % point of chi-square with one degree of freedom is 10.8).
-pub const SCORE_RETRY: f64 = 10.8;
-
 /// BIC threshold for support.
 pub const SUPPORT: f64 = 10.0;
 
-/// Uniform priors over a composite model's default bounds.
-pub fn priors_for(model: &Composite) -> Priors {
-    let names = model.param_names();
-    let priors = model
-        .bounds()
-        .into_iter()
-        .map(|(lower, upper)| Prior::Uniform { lower, upper })
+/// When the record cannot tell the best candidate from another: both
+/// supported and within [`SUPPORT`] of each other in BIC. The sentence
+/// names both and their numbers.
+///
+/// ```
+/// use hbis::criticism::ranking::caution_for;
+/// assert_eq!(caution_for(&[("lcfm", -24.7), ("friction-decay", -14.5)]), None);
+/// let s = caution_for(&[("lcfm", -24.7), ("friction-decay", -16.0)]).unwrap();
+/// assert!(s.contains("friction-decay") && s.contains("8.7"));
+/// ```
+pub fn caution_for(ranked: &[(&str, f64)]) -> Option<String> {
+    let (best, b) = *ranked.first()?;
+    let rivals: Vec<String> = ranked[1..]
+        .iter()
+        .filter(|(_, d)| *d < -SUPPORT && *d - b < SUPPORT)
+        .map(|(n, d)| format!("`{n}` (delta BIC {d:+.1}, {:.1} behind)", d - b))
         .collect();
-    Priors::from_parts(names, priors).expect("one bound per parameter")
+    if b >= -SUPPORT || rivals.is_empty() {
+        return None;
+    }
+    Some(format!(
+        "`{best}` (delta BIC {b:+.1}) is not told apart from {}: the difference is under {SUPPORT} in BIC, so this record does not say which of them explains the residual (it may hold more than one: the ladder adds another next only if it still pays); `{best}` is ranked first without strong evidence against the others.",
+        rivals.join(", ")
+    ))
+}
+
+/// [`caution_for`] of ranked candidates.
+pub fn caution(ranked: &[RankedCandidate]) -> Option<String> {
+    let pairs: Vec<(&str, f64)> = ranked
+        .iter()
+        .map(|c| (c.effect.as_str(), c.delta_bic))
+        .collect();
+    caution_for(&pairs)
+}
+
+/// Uniform priors over the bounds the model's components declare.
+pub fn priors_for(model: &Model) -> Priors {
+    Posterior::default_priors(model, Noise::White)
 }
 
 /// `data` with a release detected between two samples placed by a fit of
-/// `model` ([`crate::inference::release`]); other records as they are.
-/// Every later fit of the record (candidates, ladder) keeps this placement.
+/// `model` (the stage `hbis fit` runs, [`fit_map`]); other records as they
+/// are. Every later fit of the record (candidates, ladder) keeps this
+/// placement.
 pub fn place_release(
-    model: &Composite,
+    model: &Model,
     data: Aligned,
     settings: &MapSettings,
     seed: u64,
@@ -156,42 +182,77 @@ pub fn place_release(
     if !data.lag_unknown() {
         return Ok(data);
     }
-    let post = Posterior::new(model.clone(), data.clone(), priors_for(model), Noise::White)?;
     let mut rng = StdRng::seed_from_u64(seed);
-    let map = find_map(&post, settings, &mut rng)?;
-    Ok(replace_release(model, &data, &map.theta)?.0)
+    let fit = fit_map(
+        model.clone(),
+        data,
+        priors_for(model),
+        Noise::White,
+        settings,
+        None,
+        &mut rng,
+    )?;
+    Ok(fit.posterior.data().clone())
 }
 
 /// The release placed again by `model` from parameters `theta` near its
 /// MAP: the record with the new lag, and the parameters that go with it.
 fn replace_release(
-    model: &Composite,
+    model: &Model,
     data: &Aligned,
     theta: &[f64],
 ) -> Result<(Aligned, Vec<f64>), CriticismError> {
     let post = Posterior::new(model.clone(), data.clone(), priors_for(model), Noise::White)?;
-    let lagged = crate::inference::release::fit_lag(&post, theta)?;
-    Ok((data.clone().with_lag(lagged.lag), lagged.theta))
+    let lagged = crate::inference::release::fit_lag(&post, theta).map_err(PipelineError::from)?;
+    Ok((data.clone().placed(lagged.lag), lagged.theta))
 }
 
-/// Fits `model` to `data` (white noise, default priors), warm-started from
-/// `start` if given.
+/// Fits `model` to `data` (white noise, default priors) with the MAP stage
+/// `hbis fit` runs, warm-started from `start` if given; BIC and the Laplace
+/// evidence at the MAP.
 pub fn fit_model(
-    model: &Composite,
+    model: &Model,
     data: &Aligned,
     start: Option<Vec<f64>>,
     settings: &MapSettings,
     seed: u64,
 ) -> Result<ModelFit, CriticismError> {
-    let post = Posterior::new(model.clone(), data.clone(), priors_for(model), Noise::White)?;
+    let (fit, cmp) = map_of(model, data, start, settings, seed)?;
+    with_evidence(model, &fit, cmp, seed)
+}
+
+/// The MAP stage alone (no evidence), with its comparison numbers.
+fn map_of(
+    model: &Model,
+    data: &Aligned,
+    start: Option<Vec<f64>>,
+    settings: &MapSettings,
+    seed: u64,
+) -> Result<(MapFit<Model>, Comparison), CriticismError> {
     let mut rng = StdRng::seed_from_u64(seed);
-    let map = find_map(&post, &settings.clone().with_initial(start)?, &mut rng)?;
-    let n = data.a.len() as f64;
-    let d = map.theta.len();
-    let log_l = -0.5 * n * ((2.0 * std::f64::consts::PI * map.eval.sse / n).ln() + 1.0);
-    let bic = (d as f64 + 1.0) * n.ln() - 2.0 * log_l;
-    let log_evidence = laplace(
-        &post,
+    let fit = fit_map(
+        model.clone(),
+        data.clone(),
+        priors_for(model),
+        Noise::White,
+        settings,
+        start,
+        &mut rng,
+    )?;
+    let cmp = compare(&fit.posterior, &fit.map.theta)?;
+    Ok((fit, cmp))
+}
+
+/// A MAP with its Laplace evidence.
+fn with_evidence(
+    model: &Model,
+    fit: &MapFit<Model>,
+    cmp: Comparison,
+    seed: u64,
+) -> Result<ModelFit, CriticismError> {
+    let map = &fit.map;
+    let log_evidence = laplace_evidence(
+        &fit.posterior,
         &map.theta,
         map.eval.log_posterior,
         seed ^ 0x1A91_ACE0,
@@ -201,74 +262,100 @@ pub fn fit_model(
         names: map.names.clone(),
         theta: map.theta.clone(),
         e2: map.eval.e2,
-        log_likelihood: log_l,
-        bic,
+        log_likelihood: cmp.log_likelihood,
+        bic: cmp.bic,
         log_evidence,
         evaluations: map.evaluations(),
     })
 }
 
-/// Laplace's approximation of the log-evidence at the MAP, with the
-/// posterior covariance estimated by a short ensemble run from the MAP (2
-/// ensembles of `2 (d + 1)` walkers, 400 steps, the second half kept). A finite-difference Hessian
-/// is not used: the likelihood is only piecewise smooth (reversals cross
-/// sample instants as parameters change), and curvature measured over a
-/// conditional sd mixes in those small jumps; on a 6-parameter test it put
-/// ln Z 14 nats below the sampled-covariance value, which agrees with
-/// transitional MCMC (`tests/evidence.rs`).
-fn laplace(
-    post: &Posterior<Composite>,
-    theta: &[f64],
-    lp: f64,
-    seed: u64,
-) -> Result<f64, CriticismError> {
-    let d = theta.len();
-    let (lo, hi) = post.priors().box_bounds();
-    let range: Vec<f64> = lo.iter().zip(&hi).map(|(l, h)| h - l).collect();
-    let h = conditional_scales(post, theta, &range)?;
-    let walkers = 2 * (d + 1) + (2 * (d + 1)) % 2;
-    let settings = SampleSettings::default()
-        .with_ensembles(2)
-        .and_then(|s| s.with_walkers(walkers.max(4)))
-        .and_then(|s| s.with_max_steps(400))
-        .and_then(|s| s.with_tau_multiple(1e9))
-        .expect("valid settings");
-    let sample = sample_posterior(
-        post,
-        post.names(),
-        theta,
-        &h,
-        &settings,
-        seed,
-        None,
-        "",
-        &mut |_| {},
-    )?;
-    let cov = covariance(&sample.draws());
-    let m = nalgebra::DMatrix::from_fn(d, d, |i, j| cov[i][j]);
-    let half_log_det = match m.cholesky() {
-        Some(c) => c.l().diagonal().iter().map(|v| v.ln()).sum::<f64>(),
-        None => h.iter().map(|v| v.ln()).sum::<f64>(),
-    };
-    Ok(lp + 0.5 * d as f64 * (2.0 * std::f64::consts::PI).ln() + half_log_det)
+/// Starts of a candidate's refit: the warm start (the new parameters
+/// switched off), then spread starts with the new parameters at `spread`
+/// fractions of their prior range (the others at the current MAP).
+fn starts(c: &Candidate, new: &[usize], spread: &[f64]) -> Vec<Vec<f64>> {
+    let bounds = c.model.bounds();
+    let mut out = vec![c.start.clone()];
+    for &f in spread {
+        let mut s = c.start.clone();
+        for &k in new {
+            let (lo, hi) = bounds[k];
+            s[k] = lo + f * (hi - lo);
+        }
+        out.push(s);
+    }
+    out
 }
 
-/// Screens, refits and ranks every catalog effect absent from `current`.
+/// Refits `c` from each start; the best, with how many starts reached it
+/// (within one unit of log-likelihood).
+fn multi_start(
+    c: &Candidate,
+    starts: Vec<Vec<f64>>,
+    data: &Aligned,
+    settings: &MapSettings,
+    rng: &mut StdRng,
+) -> Result<(ModelFit, usize, usize), CriticismError> {
+    let mut fits = Vec::new();
+    for s in starts {
+        let seed: u64 = rng.random();
+        fits.push((map_of(&c.model, data, Some(s), settings, seed)?, seed));
+    }
+    let n = fits.len();
+    let best = fits
+        .iter()
+        .map(|((_, cmp), _)| cmp.log_likelihood)
+        .fold(f64::NEG_INFINITY, f64::max);
+    let agreeing = fits
+        .iter()
+        .filter(|((_, cmp), _)| cmp.log_likelihood > best - 1.0)
+        .count();
+    let ((fit, cmp), seed) = fits
+        .into_iter()
+        .max_by(|a, b| a.0 .1.log_likelihood.total_cmp(&b.0 .1.log_likelihood))
+        .expect("at least the warm start");
+    Ok((with_evidence(&c.model, &fit, cmp, seed)?, n, agreeing))
+}
+
+/// Screens, refits and ranks every registered component absent from
+/// `current`.
 pub fn rank_candidates(
-    current: &Composite,
+    registry: &Registry,
+    current: &Model,
     fit: &ModelFit,
     data: &Aligned,
     settings: &MapSettings,
     seed: u64,
-) -> Result<Vec<RankedCandidate>, CriticismError> {
-    let cands = candidates(current, &fit.theta);
+) -> Result<Ranking, CriticismError> {
+    let cands = registry.candidates(current, &fit.theta);
     let mut model_now = vec![0.0; data.a.len()];
     data.model_accel_into(current, &fit.theta, &mut model_now)?;
-    let r: Vec<f64> = data.a.iter().zip(&model_now).map(|(a, m)| a - m).collect();
-    let sigma2 = r.iter().map(|v| v * v).sum::<f64>() / r.len() as f64;
     let nuisance = jacobian(current, &fit.theta, &model_now, data);
     let mut rng = StdRng::seed_from_u64(seed);
-    let mut out = Vec::new();
+    // The numerical engine costs some 30 times the closed form: its refits
+    // get a smaller budget (the warm start is already close).
+    let numeric_budget = settings
+        .clone()
+        .with_max_evals(NUMERIC_BUDGET)?
+        .with_polish(Some(Polish::default().with_max_iters(300).expect("valid")))?;
+    // Candidates that need the numerical engine are compared with the
+    // current model refitted on that engine: a closed-form MAP can sit
+    // where a reversal falls on a sample instant, which the engines resolve
+    // to either side of the jump ([`Model::numerically`]).
+    let mut numeric_baseline =
+        if current.closed_form() && cands.iter().any(|c| !c.model.closed_form()) {
+            let numeric = current.clone().numerically();
+            let refit = fit_model(
+                &numeric,
+                data,
+                Some(fit.theta.clone()),
+                &numeric_budget,
+                rng.random(),
+            )?;
+            Some(refit)
+        } else {
+            None
+        };
+    let mut refits = Vec::new();
     for c in cands {
         let old = current.param_names();
         let new: Vec<usize> = c
@@ -279,40 +366,50 @@ pub fn rank_candidates(
             .filter(|(_, n)| !old.contains(n))
             .map(|(i, _)| i)
             .collect();
-        let score = score_test(
-            &c.model, &c.start, &new, &model_now, &r, sigma2, data, &nuisance,
-        );
-        // The numerical engine costs some 30 times the closed form: its
-        // refit gets a smaller budget (the warm start is already close).
-        let budget = if c.model.velocity_friction() {
+        let budget = if c.model.closed_form() {
             settings
-                .clone()
-                .with_max_evals(NUMERIC_BUDGET)?
-                .with_polish(Some(Polish::default().with_max_iters(300).expect("valid")))?
         } else {
-            settings.clone()
+            &numeric_budget
         };
-        let mut refit = fit_model(&c.model, data, Some(c.start.clone()), &budget, rng.random())?;
-        // A large score with no gain means the refit stayed where the new
-        // parameters are switched off (often on a bound): try again with
-        // them a tenth of their range into the support.
-        if score > SCORE_RETRY && refit.log_likelihood - fit.log_likelihood < 1.0 {
-            let bounds = c.model.bounds();
-            let mut start = c.start.clone();
-            for &k in &new {
-                let (lo, hi) = bounds[k];
-                let step = 0.1 * (hi - lo);
-                start[k] = if start[k] + step <= hi {
-                    start[k] + step
-                } else {
-                    start[k] - step
-                };
-            }
-            let second = fit_model(&c.model, data, Some(start), &budget, rng.random())?;
-            if second.log_likelihood > refit.log_likelihood {
-                refit = second;
-            }
-        }
+        let score = score_test(&c.model, &c.start, &new, data, &nuisance);
+        // The numerical engine costs some 30 times the closed form: one
+        // spread start (mid-range) instead of two.
+        let spread: &[f64] = if c.model.closed_form() {
+            &[0.25, 0.75]
+        } else {
+            &[0.5]
+        };
+        let (refit, n_starts, agreeing) =
+            multi_start(&c, starts(&c, &new, spread), data, budget, &mut rng)?;
+        refits.push((c, score, refit, n_starts, agreeing));
+    }
+    // A candidate must not look supported because its refit found a better
+    // basin of the parameters the current model has too.
+    let mut fit = fit.clone();
+    let current_budget = if current.closed_form() {
+        settings
+    } else {
+        &numeric_budget
+    };
+    improve_baseline(
+        current,
+        &mut fit,
+        &refits,
+        data,
+        current_budget,
+        rng.random(),
+    )?;
+    if let Some(base) = &mut numeric_baseline {
+        let numeric = current.clone().numerically();
+        improve_baseline(&numeric, base, &refits, data, &numeric_budget, rng.random())?;
+    }
+    let fit = &fit;
+    let mut out = Vec::new();
+    for (c, score, refit, n_starts, agreeing) in refits {
+        let fit = match &numeric_baseline {
+            Some(b) if !c.model.closed_form() => b,
+            _ => fit,
+        };
         let delta_bic = refit.bic - fit.bic;
         out.push(RankedCandidate {
             effect: c.effect.clone(),
@@ -324,26 +421,89 @@ pub fn rank_candidates(
             delta_log_evidence: refit.log_evidence - fit.log_evidence,
             supported: delta_bic < -SUPPORT,
             signature: c.signature.clone(),
+            starts: n_starts,
+            agreeing,
             fit: refit,
-            composite: c.model.clone(),
+            extended: c.model.clone(),
         });
     }
     out.sort_by(|a, b| a.delta_bic.total_cmp(&b.delta_bic));
-    Ok(out)
+    Ok(Ranking {
+        candidates: out,
+        current: fit.clone(),
+    })
 }
 
-/// The score statistic of the new parameters at the warm start.
-#[allow(clippy::too_many_arguments)]
+/// Ranked candidates, and the current model's fit they are compared with.
+#[derive(Debug, Clone)]
+pub struct Ranking {
+    /// Best first (by BIC).
+    pub candidates: Vec<RankedCandidate>,
+    /// The current model's fit: the one given, or a better one found from
+    /// the current model's part of a candidate's refit.
+    pub current: ModelFit,
+}
+
+/// `base`, a fit of `current` (on its engine), refitted from the current
+/// model's part of the best refit of a candidate on the same engine when
+/// that part alone fits better.
+fn improve_baseline(
+    current: &Model,
+    base: &mut ModelFit,
+    refits: &[(Candidate, f64, ModelFit, usize, usize)],
+    data: &Aligned,
+    budget: &MapSettings,
+    seed: u64,
+) -> Result<(), CriticismError> {
+    let post = Posterior::new(
+        current.clone(),
+        data.clone(),
+        priors_for(current),
+        Noise::White,
+    )?;
+    let mut best: Option<(f64, Vec<f64>)> = None;
+    let same_engine = |c: &Candidate| c.model.closed_form() == current.closed_form();
+    for (c, _, refit, _, _) in refits.iter().filter(|r| same_engine(&r.0)) {
+        let layout = c.model.layout();
+        let projected = current
+            .layout()
+            .theta_from(&|p| layout.get(&refit.theta, &p.name).unwrap_or(p.neutral));
+        let ln_l = post.evaluate(&projected)?.log_likelihood;
+        if best.as_ref().is_none_or(|(b, _)| ln_l > *b) {
+            best = Some((ln_l, projected));
+        }
+    }
+    let here = post.evaluate(&base.theta)?.log_likelihood;
+    if let Some((ln_l, start)) = best {
+        if ln_l > here + 0.5 {
+            let refit = fit_model(current, data, Some(start), budget, seed)?;
+            if refit.log_likelihood > base.log_likelihood {
+                *base = refit;
+            }
+        }
+    }
+    Ok(())
+}
+
+/// The score statistic of the new parameters at the warm start, with the
+/// residual and its level of the extended model there (the current model's
+/// motion, on the extended model's engine).
 fn score_test(
-    model: &Composite,
+    model: &Model,
     start: &[f64],
     new: &[usize],
-    base_accel: &[f64],
-    r: &[f64],
-    sigma2: f64,
     data: &Aligned,
     nuisance: &nalgebra::DMatrix<f64>,
 ) -> f64 {
+    let mut base_accel = vec![0.0; data.a.len()];
+    if data
+        .model_accel_into(model, start, &mut base_accel)
+        .is_err()
+    {
+        return 0.0;
+    }
+    let r: Vec<f64> = data.a.iter().zip(&base_accel).map(|(a, m)| a - m).collect();
+    let sigma2 = r.iter().map(|v| v * v).sum::<f64>() / r.len() as f64;
     let bounds = model.bounds();
     // Projector onto the complement of the current model's tangent space:
     // the efficient score only counts what the current parameters cannot
@@ -368,7 +528,7 @@ fn score_test(
             r.len(),
             shifted
                 .iter()
-                .zip(base_accel)
+                .zip(&base_accel)
                 .map(|(s, b)| (s - b) / (probe[k] - start[k])),
         );
         let g = &g - &q * (q.transpose() * &g);
@@ -383,12 +543,7 @@ fn score_test(
 
 /// Finite-difference Jacobian of the model's acceleration (columns scaled
 /// to unit length; only their span matters).
-fn jacobian(
-    model: &Composite,
-    theta: &[f64],
-    accel: &[f64],
-    data: &Aligned,
-) -> nalgebra::DMatrix<f64> {
+fn jacobian(model: &Model, theta: &[f64], accel: &[f64], data: &Aligned) -> nalgebra::DMatrix<f64> {
     let bounds = model.bounds();
     let n = accel.len();
     let mut cols: Vec<nalgebra::DVector<f64>> = Vec::new();
@@ -438,6 +593,9 @@ pub struct Step {
     pub diagnosis: Diagnostics,
     /// The candidates considered after this model, best first.
     pub candidates: Vec<RankedCandidate>,
+    /// When the best candidate is not told apart from another
+    /// ([`caution`]).
+    pub caution: Option<String>,
     /// The fit.
     #[serde(skip)]
     pub fit: ModelFit,
@@ -445,50 +603,102 @@ pub struct Step {
 
 /// Diagnoses a fit of `model`.
 pub fn diagnosis_of(
-    model: &Composite,
+    model: &Model,
     fit: &ModelFit,
     data: &Aligned,
 ) -> Result<Diagnostics, CriticismError> {
     let mut accel = vec![0.0; data.a.len()];
     data.model_accel_into(model, &fit.theta, &mut accel)?;
-    let spec = model.spec();
-    let base = spec
-        .params_from_slice(&fit.theta[..model.n_spec()])
-        .map_err(SimError::from)?;
-    Ok(diagnose(&spec, &base, &data.a, &accel, data.dt)?)
+    let base = model.core_params(&fit.theta).map_err(SimError::from)?;
+    Ok(diagnose(&model.spec(), &base, &data.a, &accel, data.dt)?)
+}
+
+/// The fit of a candidate's model as the ladder adopts it: the refit, or on
+/// the numerical engine (screened on a smaller budget) the better of it and
+/// a refit from it with the full budget of `settings`.
+pub fn adopt(
+    c: &RankedCandidate,
+    data: &Aligned,
+    settings: &MapSettings,
+    seed: u64,
+) -> Result<ModelFit, CriticismError> {
+    if c.extended.closed_form() {
+        return Ok(c.fit.clone());
+    }
+    let full = fit_model(&c.extended, data, Some(c.fit.theta.clone()), settings, seed)?;
+    Ok(if full.log_likelihood > c.fit.log_likelihood {
+        full
+    } else {
+        c.fit.clone()
+    })
+}
+
+/// What `hbis diagnose` computes, and the ladder's first step: the fit of
+/// `model` (seed `seed`), its residual diagnosis, and every candidate
+/// screened, refitted and ranked (seed `seed + 1`). The same inputs give
+/// the same numbers in both.
+pub fn diagnose_model(
+    registry: &Registry,
+    model: &Model,
+    data: &Aligned,
+    settings: &MapSettings,
+    seed: u64,
+) -> Result<(ModelFit, Diagnostics, Vec<RankedCandidate>), CriticismError> {
+    let fit = fit_model(model, data, None, settings, seed)?;
+    let ranking = rank_candidates(registry, model, &fit, data, settings, seed.wrapping_add(1))?;
+    let diagnosis = diagnosis_of(model, &ranking.current, data)?;
+    Ok((ranking.current, diagnosis, ranking.candidates))
 }
 
 /// From `start`: diagnose, add the best supported effect, refit, repeat
-/// until nothing is supported (or `max_steps` effects were added).
+/// until nothing is supported (or `max_steps` effects were added). Step 0
+/// is [`diagnose_model`] with the same seed.
 pub fn ladder(
-    start: Composite,
+    registry: &Registry,
+    start: Model,
     data: &Aligned,
     settings: &MapSettings,
     seed: u64,
     max_steps: usize,
 ) -> Result<Vec<Step>, CriticismError> {
-    ladder_observed(start, data, settings, seed, max_steps, &mut |_| {})
+    ladder_observed(
+        registry,
+        start,
+        data,
+        settings,
+        seed,
+        max_steps,
+        &mut |_| {},
+    )
 }
 
 /// [`ladder`], calling `on_step` with each step as soon as it is done (for
 /// progress reports; the result does not depend on it).
+#[allow(clippy::too_many_arguments)]
 pub fn ladder_observed(
-    start: Composite,
+    registry: &Registry,
+    start: Model,
     data: &Aligned,
     settings: &MapSettings,
     seed: u64,
     max_steps: usize,
     on_step: &mut dyn FnMut(&Step),
 ) -> Result<Vec<Step>, CriticismError> {
-    let mut rng = StdRng::seed_from_u64(seed);
+    // Seeds of the steps after the first.
+    let mut rng = StdRng::seed_from_u64(seed ^ 0x1ADD_E250);
     let mut model = start;
     let mut data = data.clone();
-    let mut fit = fit_model(&model, &data, None, settings, rng.random())?;
+    let (mut fit, mut diagnosis, mut cands) =
+        diagnose_model(registry, &model, &data, settings, seed)?;
     let mut added: Option<String> = None;
     let mut steps = Vec::new();
-    for _ in 0..=max_steps {
-        let diagnosis = diagnosis_of(&model, &fit, &data)?;
-        let cands = rank_candidates(&model, &fit, &data, settings, rng.random())?;
+    for k in 0..=max_steps {
+        if k > 0 {
+            let ranking = rank_candidates(registry, &model, &fit, &data, settings, rng.random())?;
+            fit = ranking.current;
+            cands = ranking.candidates;
+            diagnosis = diagnosis_of(&model, &fit, &data)?;
+        }
         let next = cands.first().filter(|c| c.supported).cloned();
         steps.push(Step {
             model: model.name(),
@@ -497,17 +707,18 @@ pub fn ladder_observed(
             bic: fit.bic,
             log_evidence: fit.log_evidence,
             lag: data.lag,
-            diagnosis,
-            candidates: cands,
+            diagnosis: diagnosis.clone(),
+            candidates: cands.clone(),
+            caution: caution(&cands),
             fit: fit.clone(),
         });
         on_step(steps.last().expect("just pushed"));
         match next {
             Some(c) if steps.len() <= max_steps => {
                 added = Some(c.effect.clone());
-                model = c.composite;
-                fit = c.fit;
-                if data.lag_unknown() {
+                fit = adopt(&c, &data, settings, rng.random())?;
+                model = c.extended;
+                if data.lag_detected() {
                     // Placed by a model without this effect, the release
                     // may be off: the new model places it again.
                     let (placed, theta) = replace_release(&model, &data, &fit.theta)?;

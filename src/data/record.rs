@@ -138,6 +138,9 @@ pub struct Aligned {
     /// mirror image of a release from `|u0|`, and `a` holds it mirrored:
     /// every fit sees the paper's convention (`u0 > 0`, `a(0) < 0`).
     pub polarity: f64,
+    /// Whether a fit has placed a detected release ([`Aligned::placed`]):
+    /// later fits keep the lag.
+    pub lag_placed: bool,
     /// Measured acceleration (m/s^2) at `t0 + lag + i dt`, times `polarity`.
     pub a: Vec<f64>,
 }
@@ -146,7 +149,22 @@ impl Aligned {
     /// Whether the release instant is known only to lie between the last
     /// sample before the detected release and the first one after it.
     pub fn lag_unknown(&self) -> bool {
+        self.lag_detected() && !self.lag_placed
+    }
+
+    /// Whether the release was detected after the record's first sample,
+    /// so its lag is an estimate (placed or not).
+    pub fn lag_detected(&self) -> bool {
         self.source == ReleaseSource::Detected && self.first_index > 0
+    }
+
+    /// The same samples with a detected release placed `lag` s before the
+    /// first one by a fit: later fits keep it.
+    pub fn placed(self, lag: f64) -> Self {
+        Self {
+            lag_placed: true,
+            ..self.with_lag(lag)
+        }
     }
 
     /// The same samples with the release `lag` s before the first one.
@@ -380,6 +398,7 @@ impl Record {
             first_index: first,
             dt,
             polarity,
+            lag_placed: false,
             a: self.a[first..].iter().map(|a| polarity * a).collect(),
         })
     }

@@ -80,7 +80,7 @@ mod tests {
         fn name(&self) -> String {
             "faulty".into()
         }
-        fn param_names(&self) -> Vec<String> {
+        fn params(&self) -> Vec<crate::model::ParamSpec> {
             vec![]
         }
         fn accel_grid_into(

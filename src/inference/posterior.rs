@@ -36,9 +36,9 @@ use nalgebra::DVector;
 use thiserror::Error;
 
 use super::likelihood::{ar1_sum, marginal, sum_of_squares, Noise};
-use super::priors::{PriorError, Priors};
+use super::priors::{PriorError, Priors, RHO_BOUNDS};
 use crate::data::Aligned;
-use crate::model::{ForwardModel, SimError};
+use crate::model::{ForwardModel, Layout, ParamSpec, SimError};
 
 /// Why the posterior could not be built or evaluated.
 #[derive(Debug, Error)]
@@ -96,7 +96,7 @@ pub struct Posterior<M> {
     priors: Priors,
     noise: Noise,
     names: Vec<String>,
-    n_model: usize,
+    layout: Layout,
     energy: f64,
     /// `marginal(n, 1)`: the likelihood's constant part.
     ln_const: f64,
@@ -118,7 +118,7 @@ impl<M: ForwardModel> Posterior<M> {
                 model: names.join(", "),
             });
         }
-        let n_model = model.param_names().len();
+        let layout = Self::layout_for(&model, noise);
         let energy = data.energy();
         let ln_const = marginal(data.a.len(), 1.0);
         Ok(Self {
@@ -127,7 +127,7 @@ impl<M: ForwardModel> Posterior<M> {
             priors,
             noise,
             names,
-            n_model,
+            layout,
             energy,
             ln_const,
         })
@@ -139,8 +139,54 @@ impl<M: ForwardModel> Posterior<M> {
         data: Aligned,
         noise: Noise,
     ) -> Result<Self, PosteriorError> {
-        let priors = Priors::defaults(&Self::names_for(&model, noise))?;
+        let priors = Self::default_priors(&model, noise);
         Self::new(model, data, priors, noise)
+    }
+
+    /// Uniform priors on the bounds the model's components declare (and
+    /// [`RHO_BOUNDS`] for AR(1) noise).
+    pub fn default_priors(model: &M, noise: Noise) -> Priors {
+        let layout = Self::layout_for(model, noise);
+        Priors::uniform(layout.names(), &layout.bounds()).expect("one bound per name")
+    }
+
+    /// The layout of `theta`: the model's parameters (block `model`), then
+    /// the noise model's (block `noise`).
+    pub fn layout_for(model: &M, noise: Noise) -> Layout {
+        let mut layout = Layout::default();
+        layout.push("model".into(), model.params());
+        let extra = match noise {
+            Noise::White => vec![],
+            Noise::Ar1 => vec![ParamSpec::new("rho", "-", RHO_BOUNDS, 0.0)
+                .symbol("rho")
+                .meaning("lag-one correlation of the measurement error")
+                .scale(0.05)],
+        };
+        layout.push("noise".into(), extra);
+        layout
+    }
+
+    /// The layout of `theta`.
+    pub fn layout(&self) -> &Layout {
+        &self.layout
+    }
+
+    /// The model's part of `theta`.
+    pub fn model_part<'a>(&self, theta: &'a [f64]) -> &'a [f64] {
+        self.layout.values(theta, 0)
+    }
+
+    /// The noise model's part of `theta` (`[rho]` for AR(1), else empty).
+    pub fn noise_part<'a>(&self, theta: &'a [f64]) -> &'a [f64] {
+        self.layout.values(theta, 1)
+    }
+
+    /// `model` values followed by the noise model's neutral values (`rho =
+    /// 0`): a start for this posterior from a white-noise fit.
+    pub fn with_neutral_noise(&self, model: &[f64]) -> Vec<f64> {
+        let mut theta = model.to_vec();
+        theta.extend(self.layout.blocks()[1].params.iter().map(|p| p.neutral));
+        theta
     }
 
     /// The parameter names a model and noise model need, in order.
@@ -184,7 +230,7 @@ impl<M: ForwardModel> Posterior<M> {
     pub fn model_accel(&self, theta: &[f64]) -> Result<Vec<f64>, SimError> {
         let mut out = vec![0.0; self.data.a.len()];
         self.data
-            .model_accel_into(&self.model, &theta[..self.n_model], &mut out)?;
+            .model_accel_into(&self.model, self.model_part(theta), &mut out)?;
         Ok(out)
     }
 
@@ -202,14 +248,14 @@ impl<M: ForwardModel> Posterior<M> {
             });
         }
         let mut log_prior = self.priors.ln_pdf(theta);
-        if !self.model.in_support(&theta[..self.n_model]) {
+        if !self.model.in_support(self.model_part(theta)) {
             log_prior = f64::NEG_INFINITY;
         }
         if log_prior == f64::NEG_INFINITY {
             return Ok(Evaluation::outside(log_prior));
         }
         let n = self.data.a.len();
-        let rho = (self.noise == Noise::Ar1).then(|| theta[self.n_model]);
+        let rho = self.noise_part(theta).first().copied();
         let result = BUFFER.with(|cell| {
             let mut buf = cell.borrow_mut();
             buf.resize(n, 0.0);
@@ -217,7 +263,7 @@ impl<M: ForwardModel> Posterior<M> {
             // no mass there.
             if self
                 .data
-                .model_accel_into(&self.model, &theta[..self.n_model], &mut buf)
+                .model_accel_into(&self.model, self.model_part(theta), &mut buf)
                 .is_err()
             {
                 return None;

@@ -120,20 +120,14 @@ fn pos_inf() -> f64 {
 /// | `u3` | 0.001 | 0.5 | m |
 /// | `rho` | -0.999 | 0.999 | - |
 pub fn default_bounds(name: &str) -> Option<(f64, f64)> {
-    Some(match name {
-        "u0" => (0.005, 0.5),
-        "uy" => (0.0005, 0.05),
-        "uF0" => (0.0, 0.02),
-        "rF0" => (-0.1, 0.1),
-        "zeta0" => (0.0, 0.2),
-        "f0" => (0.1, 2.0),
-        "f1" => (0.05, 2.0),
-        "f2" => (0.02, 2.0),
-        "u3" => (0.001, 0.5),
-        "rho" => (-0.999, 0.999),
-        _ => return None,
-    })
+    match name {
+        "rho" => Some(RHO_BOUNDS),
+        _ => crate::model::ParamName::parse(name).map(|p| p.bounds()),
+    }
 }
+
+/// Default bounds of the AR(1) coefficient `rho`.
+pub const RHO_BOUNDS: (f64, f64) = (-0.999, 0.999);
 
 impl Prior {
     /// Log-density up to a constant; `-inf` outside the support.
@@ -278,40 +272,43 @@ impl Priors {
         })
     }
 
-    /// Defaults overridden by `overrides` (name -> prior).
-    pub fn with_overrides(
-        names: &[String],
-        overrides: &BTreeMap<String, Prior>,
-    ) -> Result<Self, PriorError> {
+    /// Uniform priors on `bounds`, one per name.
+    pub fn uniform(names: Vec<String>, bounds: &[(f64, f64)]) -> Option<Self> {
+        let priors = bounds
+            .iter()
+            .map(|&(lower, upper)| Prior::Uniform { lower, upper })
+            .collect();
+        Self::from_parts(names, priors)
+    }
+
+    /// These priors with some replaced by `overrides` (name -> prior); each
+    /// override is checked, and a bound it leaves open is taken from the
+    /// support of the prior it replaces.
+    pub fn with_overrides(self, overrides: &BTreeMap<String, Prior>) -> Result<Self, PriorError> {
         for name in overrides.keys() {
-            if !names.contains(name) {
+            if !self.names.contains(name) {
                 return Err(PriorError::Unknown {
                     name: name.clone(),
-                    known: names.join(", "),
+                    known: self.names.join(", "),
                 });
             }
         }
-        let mut priors = Vec::with_capacity(names.len());
-        for n in names {
-            let bounds = default_bounds(n);
+        let mut priors = Vec::with_capacity(self.names.len());
+        for (n, base) in self.names.iter().zip(self.priors) {
             let p = match overrides.get(n) {
-                Some(p) => p.checked(n, bounds)?,
-                None => {
-                    let (lower, upper) =
-                        bounds.ok_or_else(|| PriorError::NoDefault { name: n.clone() })?;
-                    Prior::Uniform { lower, upper }
-                }
+                Some(p) => p.checked(n, Some(base.support()))?,
+                None => base,
             };
             priors.push(p);
         }
         Ok(Self {
-            names: names.to_vec(),
+            names: self.names,
             priors,
         })
     }
 
-    /// Defaults overridden by the entries of a JSON or TOML text.
-    pub fn parse(names: &[String], text: &str, toml: bool) -> Result<Self, PriorError> {
+    /// These priors overridden by the entries of a JSON or TOML text.
+    pub fn parse(self, text: &str, toml: bool) -> Result<Self, PriorError> {
         let raw: BTreeMap<String, serde_json::Value> = if toml {
             let table: toml::Table = toml::from_str(text).map_err(|e| PriorError::Syntax {
                 format: "TOML",
@@ -339,11 +336,12 @@ impl Priors {
             })?;
             overrides.insert(name, prior);
         }
-        Self::with_overrides(names, &overrides)
+        self.with_overrides(&overrides)
     }
 
-    /// Reads a prior file (TOML if the name ends in `.toml`, else JSON).
-    pub fn read(names: &[String], path: &Path) -> Result<Self, PriorError> {
+    /// These priors overridden by a prior file (TOML if the name ends in
+    /// `.toml`, else JSON).
+    pub fn read(self, path: &Path) -> Result<Self, PriorError> {
         let text = std::fs::read_to_string(path).map_err(|source| PriorError::Io {
             path: path.display().to_string(),
             source,
@@ -351,12 +349,21 @@ impl Priors {
         let toml = path
             .extension()
             .is_some_and(|e| e.eq_ignore_ascii_case("toml"));
-        Self::parse(names, &text, toml)
+        self.parse(&text, toml)
     }
 
     /// Priors from names and priors of equal length.
     pub fn from_parts(names: Vec<String>, priors: Vec<Prior>) -> Option<Self> {
         (names.len() == priors.len()).then_some(Self { names, priors })
+    }
+
+    /// The first `n` priors (a model's, before its noise model's).
+    pub fn head(&self, n: usize) -> Self {
+        let n = n.min(self.names.len());
+        Self {
+            names: self.names[..n].to_vec(),
+            priors: self.priors[..n].to_vec(),
+        }
     }
 
     /// Parameter names in order.
@@ -422,7 +429,10 @@ mod tests {
     #[test]
     fn json_and_toml_files_override_defaults_and_truncate() {
         let json = r#"{"f0": {"dist": "normal", "mean": 0.55, "sd": 0.05}}"#;
-        let p = Priors::parse(&names(), json, false).unwrap();
+        let p = Priors::defaults(&names())
+            .unwrap()
+            .parse(json, false)
+            .unwrap();
         assert_eq!(
             p.priors()[1],
             Prior::Normal {
@@ -440,14 +450,19 @@ mod tests {
             }
         );
         let toml = "[zeta0]\ndist = \"lognormal\"\nmu = -3.5\nsigma = 0.5\n";
-        let q = Priors::parse(&names(), toml, true).unwrap();
+        let q = Priors::defaults(&names())
+            .unwrap()
+            .parse(toml, true)
+            .unwrap();
         assert!(matches!(q.priors()[2], Prior::LogNormal { upper, .. } if upper == 0.2));
     }
 
     #[test]
     fn bad_entries_name_the_parameter() {
         let err = |text: &str| {
-            Priors::parse(&names(), text, false)
+            Priors::defaults(&names())
+                .unwrap()
+                .parse(text, false)
                 .unwrap_err()
                 .to_string()
         };

@@ -52,7 +52,7 @@ use crate::inference::polish::{Polish, PolishError};
 use crate::inference::posterior::{Posterior, PosteriorError};
 use crate::inference::priors::{Prior, Priors};
 use crate::inference::Noise;
-use crate::model::{ForwardModel, SimError};
+use crate::model::{ForwardModel, Layout, ParamSpec, SimError};
 
 /// Why the lag could not be estimated.
 #[derive(Debug, Error)]
@@ -81,11 +81,25 @@ pub struct LagFit {
     pub evaluations: u64,
 }
 
-/// `M` with its clock started `lag` (its last parameter) before the grid.
+/// `M` with its clock started `lag` (a block after the model's parameters)
+/// before the grid.
 #[derive(Debug, Clone)]
 struct Delayed<M> {
     model: M,
-    n: usize,
+    layout: Layout,
+}
+
+impl<M: ForwardModel> Delayed<M> {
+    fn new(model: M, dt: f64) -> Self {
+        let mut layout = Layout::default();
+        layout.push("model".into(), model.params());
+        layout.push(
+            "lag".into(),
+            vec![ParamSpec::new("lag", "s", (0.0, dt), 0.0)
+                .meaning("time from the release to the first sample")],
+        );
+        Self { model, layout }
+    }
 }
 
 impl<M: ForwardModel> ForwardModel for Delayed<M> {
@@ -93,10 +107,8 @@ impl<M: ForwardModel> ForwardModel for Delayed<M> {
         self.model.name()
     }
 
-    fn param_names(&self) -> Vec<String> {
-        let mut names = self.model.param_names();
-        names.push("lag".into());
-        names
+    fn params(&self) -> Vec<ParamSpec> {
+        self.layout.params().cloned().collect()
     }
 
     fn accel_grid_into(
@@ -106,12 +118,13 @@ impl<M: ForwardModel> ForwardModel for Delayed<M> {
         dt: f64,
         out: &mut [f64],
     ) -> Result<(), SimError> {
+        let lag = self.layout.values(theta, 1)[0];
         self.model
-            .accel_grid_into(&theta[..self.n], start + theta[self.n], dt, out)
+            .accel_grid_into(self.layout.values(theta, 0), start + lag, dt, out)
     }
 
     fn in_support(&self, theta: &[f64]) -> bool {
-        self.model.in_support(&theta[..self.n])
+        self.model.in_support(self.layout.values(theta, 0))
     }
 }
 
@@ -123,19 +136,21 @@ pub fn fit_lag<M: ForwardModel + Clone>(
     theta: &[f64],
 ) -> Result<LagFit, LagError> {
     let model = posterior.model().clone();
-    let n = model.param_names().len();
+    let theta = posterior.model_part(theta);
+    let n = theta.len();
     let current = posterior.data().lag;
     let data = posterior.data().clone().with_lag(0.0);
     let dt = data.dt;
-    let mut names = posterior.priors().names()[..n].to_vec();
-    let mut priors = posterior.priors().priors()[..n].to_vec();
+    let model_priors = posterior.priors().head(n);
+    let mut names = model_priors.names().to_vec();
+    let mut priors = model_priors.priors().to_vec();
     names.push("lag".into());
     priors.push(Prior::Uniform {
         lower: 0.0,
         upper: dt,
     });
     let priors = Priors::from_parts(names, priors).expect("one prior per name");
-    let joint = Posterior::new(Delayed { model, n }, data, priors, Noise::White)?;
+    let joint = Posterior::new(Delayed::new(model, dt), data, priors, Noise::White)?;
     let cost = |x: &[f64]| joint.log_posterior(x).map(|lp| -lp);
     // Simplex steps: 1 % of each parameter (of its prior range at zero).
     let (lo, hi) = joint.priors().box_bounds();
@@ -153,17 +168,17 @@ pub fn fit_lag<M: ForwardModel + Clone>(
         .with_max_iters(1500)
         .and_then(|p| p.with_relative_step(1.0))?;
     let mut evaluations = 1;
-    let mut start = theta[..n].to_vec();
+    let mut start = theta.to_vec();
     start.push(current);
     let mut best = LagFit {
         lag: current,
-        theta: theta[..n].to_vec(),
+        theta: theta.to_vec(),
         cost: cost(&start)?,
         evaluations: 0,
     };
     // Continuation: each lag starts from the optimum at the one before, as
     // the parameters that absorb a shift move smoothly with it.
-    let mut from = theta[..n].to_vec();
+    let mut from = theta.to_vec();
     for frac in GRID {
         let lag = frac * dt;
         // The profile: the model parameters re-fitted at this fixed lag.

@@ -31,6 +31,13 @@ pub enum ParamError {
         value: f64,
         requirement: &'static str,
     },
+    /// A component's parameter outside its valid range.
+    #[error("parameter `{name}` = {value}: {requirement}")]
+    Component {
+        name: String,
+        value: f64,
+        requirement: String,
+    },
     /// A parameter vector of the wrong length.
     #[error("model `{model}` takes {expected} parameters, got {found}")]
     Length {
@@ -40,15 +47,25 @@ pub enum ParamError {
     },
 }
 
-/// A model spec string that cannot be parsed.
+/// A model spec string that cannot be parsed, or a component that cannot
+/// be registered.
 #[derive(Debug, Error, Clone, PartialEq)]
 pub enum SpecError {
-    #[error("unknown model component `{0}` (spring: linear|bilinear|trilinear; friction: none|coulomb|lcfm; damper: none|viscous)")]
-    Unknown(String),
+    #[error("unknown model component `{name}` (registered: {known})")]
+    Unknown { name: String, known: String },
     #[error("model spec `{spec}` names a {kind} twice")]
-    Duplicate { spec: String, kind: &'static str },
+    Duplicate { spec: String, kind: String },
     #[error("model spec `{0}` names no spring (linear, bilinear or trilinear)")]
     NoSpring(String),
+    #[error("component `{component}` needs a {slot} in the model")]
+    Requires {
+        component: String,
+        slot: &'static str,
+    },
+    #[error("component name `{0}` is not usable in a spec (non-empty, no `+`, no surrounding spaces, not `none`)")]
+    BadName(String),
+    #[error("a component named `{0}` is registered already")]
+    Registered(String),
 }
 
 /// A simulation that cannot be completed.

@@ -12,6 +12,10 @@
 //! slider adds `+-k_F` to the stiffness of a phase and `+-F_F0` to its
 //! constant force, so a phase also ends where `u` changes sign.
 //!
+//! A slider may rub harder one way than the other (the
+//! `asymmetric-friction` component): the amplitude is then scaled by
+//! `1 + a_F dir`, still constant within a phase.
+//!
 //! ```
 //! use hbis::model::friction::Friction;
 //! let f = Friction::new(0.02, -0.1);
@@ -24,12 +28,29 @@
 pub struct Friction {
     f_f0: f64,
     k_f: f64,
+    asym: f64,
 }
 
 impl Friction {
     /// Slider with constant part `f_f0` and slope `k_f` per unit mass.
     pub fn new(f_f0: f64, k_f: f64) -> Self {
-        Self { f_f0, k_f }
+        Self {
+            f_f0,
+            k_f,
+            asym: 0.0,
+        }
+    }
+
+    /// The same slider with amplitude `(1 + a_f dir) (F_F0 + k_F |u|)` when
+    /// sliding in direction `dir` (`|a_f| < 1`).
+    pub fn with_asymmetry(self, a_f: f64) -> Self {
+        Self { asym: a_f, ..self }
+    }
+
+    /// Friction amplitude when sliding (or about to slide) in direction
+    /// `dir`: the most the slider can hold against a push that way.
+    pub fn capacity(&self, u: f64, dir: f64) -> f64 {
+        (1.0 + self.asym * dir) * self.amplitude(u)
     }
 
     /// Friction amplitude `F_F0 + k_F |u|` at `u`; the slider holds the mass
@@ -40,13 +61,14 @@ impl Friction {
 
     /// Sliding force when moving in direction `dir` at `u`.
     pub fn force(&self, u: f64, dir: f64) -> f64 {
-        dir * self.amplitude(u)
+        dir * self.capacity(u, dir)
     }
 
     /// Stiffness and constant force the slider adds to a phase moving in
     /// direction `dir` with displacement sign `sign_u`.
     pub fn phase_terms(&self, dir: f64, sign_u: f64) -> (f64, f64) {
-        (self.k_f * dir * sign_u, self.f_f0 * dir)
+        let m = 1.0 + self.asym * dir;
+        (m * self.k_f * dir * sign_u, m * self.f_f0 * dir)
     }
 
     /// Whether the amplitude depends on `u` (so phases split at `u = 0`).

@@ -7,21 +7,36 @@
 //! - [`phase`]: one linear phase, solved exactly in every regime;
 //! - [`simulate`]: the event-driven walk from phase to phase;
 //! - [`response`]: samples, forces, residual displacement, work;
-//! - [`physical`]: Table 8.2 quantities from the parameters.
+//! - [`physical`]: Table 8.2 quantities from the parameters;
+//! - [`component`], [`catalog`], [`registry`], [`composed`], [`layout`]: a
+//!   model made of components (force terms and output terms) with a typed
+//!   parameter layout, the built-in catalog, and the registry that parses
+//!   specs and lists candidates;
+//! - [`numeric`]: the Dormand-Prince engine for components that are not
+//!   piecewise linear.
 
+pub mod catalog;
+pub mod component;
+pub mod composed;
 pub mod error;
 pub mod friction;
+pub mod layout;
 pub mod numeric;
 pub mod params;
 pub mod phase;
 pub mod physical;
+pub mod registry;
 pub mod response;
 pub mod simulate;
 pub mod spec;
 pub mod spring;
 
+pub use component::{Core, ForceComponent, Forces, Kinematics, OutputComponent, ParamSpec, Slot};
+pub use composed::Model;
 pub use error::{ParamError, SimError, SpecError};
+pub use layout::{Block, Layout};
 pub use params::{ParamName, Params};
+pub use registry::{Candidate, Component, Registry};
 pub use response::{Response, Sample, Work};
 pub use simulate::{Phase, PhaseKind, SimOptions, System};
 pub use spec::{DamperKind, FrictionKind, ModelSpec, SpringKind};
@@ -32,8 +47,19 @@ pub trait ForwardModel: Send + Sync {
     /// The model's name (its spec string).
     fn name(&self) -> String;
 
+    /// The parameters, in the order of `theta`, as their components
+    /// declare them.
+    fn params(&self) -> Vec<ParamSpec>;
+
     /// Parameter names, in the order of `theta`.
-    fn param_names(&self) -> Vec<String>;
+    fn param_names(&self) -> Vec<String> {
+        self.params().into_iter().map(|p| p.name).collect()
+    }
+
+    /// Default prior bounds, in the order of `theta`.
+    fn bounds(&self) -> Vec<(f64, f64)> {
+        self.params().into_iter().map(|p| p.bounds).collect()
+    }
 
     /// Acceleration at `t_i = start + i dt` (`start >= 0` s after release:
     /// a record's first sample may come a little after the release) for
@@ -64,11 +90,8 @@ impl ForwardModel for ModelSpec {
         self.to_string()
     }
 
-    fn param_names(&self) -> Vec<String> {
-        ModelSpec::param_names(self)
-            .iter()
-            .map(|p| p.as_str().to_string())
-            .collect()
+    fn params(&self) -> Vec<ParamSpec> {
+        self.used().map(|p| p.spec()).collect()
     }
 
     fn accel_grid_into(

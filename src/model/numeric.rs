@@ -1,92 +1,102 @@
 //! The numerical engine: the same equation of motion integrated by the
-//! adaptive Dormand-Prince 5(4) solver with event location, for effects
-//! whose phases are not linear.
+//! adaptive Dormand-Prince 5(4) solver with event location, for force
+//! components whose phases are not linear (friction that depends on
+//! velocity or on the distance travelled, a stiffness that degrades, a
+//! user's gap spring...).
 //!
-//! Velocity-dependent friction (Constantinou et al., MCEER-99-0012;
-//! OpenSees `VelDependent`) scales the slider force by
-//! `phi(v) = 1 - (1 - r) exp(-|v|/v_t)`, `r = mu_slow/mu_fast`: the friction
-//! amplitude `F_F0 + k_F |u|` of the paper is the fast (sliding) value, and
-//! near a reversal, where the mass is slow, the friction falls towards `r`
-//! times it. With `r = 1` this engine solves the closed-form model, against
-//! which it is checked.
-//!
-//! The hysteretic spring, its branches and the stop rule are the closed-form
-//! model's ([`Spring`](super::spring::Spring), eq. 5.6 with the friction at rest, `r` times the
-//! amplitude); each stretch between reversals and spring events is
-//! integrated, with the events located on the dense output: the reversal
-//! (`v = 0`), the spring's next branch change, and `u = 0` (where the
-//! friction force has a kink).
+//! The state is `(u, u')`; the distance travelled `s = int |u'| dt` grows
+//! by `dir (u - u_start)` within a stretch of one direction. The
+//! forces are the closed-form system's (spring on its hysteretic branch,
+//! friction amplitude `F_F0 + k_F |u|` in the direction of sliding, damper),
+//! then each component's [`modify`](ForceComponent::modify) in order. The
+//! hysteretic spring's branches and the stop rule are the closed-form
+//! model's ([`Spring`](super::spring::Spring); eq. 5.6 with the forces of
+//! the components at `u' = 0`). Each stretch between events is integrated
+//! with the events located on the dense output: the reversal (`u' = 0`),
+//! the spring's next branch change, `u = 0` (the friction's kink) and the
+//! kinks the components declare. Without components this engine solves the
+//! closed-form model, against which it is checked.
 //!
 //! ```
-//! use hbis::model::numeric::{NumericSystem, VelocityLaw};
-//! use hbis::model::{ModelSpec, Params, SimOptions, System};
+//! use hbis::model::{ForwardModel, Params, Registry};
 //!
-//! let (spec, p) = (ModelSpec::FULL, Params::table_8_1(5).unwrap());
-//! let mut closed = vec![0.0; 401];
-//! System::new(&spec, &p).accel_into(0.005, &mut closed, &SimOptions::default())?;
-//! let mut numeric = vec![0.0; 401];
-//! NumericSystem::new(&spec, &p, None).accel_into(0.005, &mut numeric)?;
-//! assert!((closed[300] - numeric[300]).abs() < 1e-6);
+//! let registry = Registry::builtin();
+//! let closed = registry.parse("trilinear+lcfm+viscous")?;
+//! let slow = registry.parse("trilinear+lcfm+viscous+velocity-friction")?;
+//! let p = Params::table_8_1(5).unwrap();
+//! let mut a = vec![0.0; 401];
+//! closed.accel_into(&closed.theta_from_params(&p, &[])?, 0.005, &mut a)?;
+//! // r_mu = 1: no velocity dependence, the same motion numerically.
+//! let mut b = vec![0.0; 401];
+//! slow.accel_into(&slow.theta_from_params(&p, &[("r_mu", 1.0)])?, 0.005, &mut b)?;
+//! assert!((a[300] - b[300]).abs() < 1e-6);
 //! // Slower friction near reversals: the record changes.
-//! let law = VelocityLaw { ratio: 0.5, v_t: 0.02 };
-//! NumericSystem::new(&spec, &p, Some(law)).accel_into(0.005, &mut numeric)?;
-//! let largest = closed.iter().zip(&numeric).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
+//! slow.accel_into(&slow.theta_from_params(&p, &[("r_mu", 0.5), ("v_t", 0.02)])?, 0.005, &mut b)?;
+//! let largest = a.iter().zip(&b).map(|(x, y)| (x - y).abs()).fold(0.0, f64::max);
 //! assert!(largest > 1e-2, "{largest}");
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
+use super::component::{ForceComponent, Forces, Kinematics};
 use super::error::SimError;
-use super::params::Params;
 use super::simulate::System;
-use super::spec::ModelSpec;
 use super::spring::SpringBranch;
 use crate::numeric::ode::{Dopri5, Stop};
 
-/// Constantinou's velocity dependence of the friction coefficient.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct VelocityLaw {
-    /// `mu_slow / mu_fast`, in `(0, 1]`.
-    pub ratio: f64,
-    /// Transition velocity `v_t` (m/s), > 0.
-    pub v_t: f64,
-}
+/// Most kinks one model may declare (the solver locates 16 events).
+const MAX_KINKS: usize = 13;
 
-impl VelocityLaw {
-    /// `phi(v) = 1 - (1 - r) exp(-|v|/v_t)`.
-    pub fn factor(&self, v: f64) -> f64 {
-        1.0 - (1.0 - self.ratio) * (-v.abs() / self.v_t).exp()
-    }
-}
-
-/// The model with (optionally) velocity-dependent friction, solved
-/// numerically.
-#[derive(Debug, Clone)]
-pub struct NumericSystem {
-    /// Spring, friction amplitude and damper, resolved as for the closed form.
+/// The resolved system plus the components solved numerically.
+#[derive(Clone)]
+pub struct NumericSystem<'a> {
     system: System,
-    u0: f64,
-    law: Option<VelocityLaw>,
+    terms: &'a [(&'a dyn ForceComponent, &'a [f64])],
 }
 
-impl NumericSystem {
-    /// The system of validated parameters `p` of `spec`, with `law` if given.
-    pub fn new(spec: &ModelSpec, p: &Params, law: Option<VelocityLaw>) -> Self {
-        Self {
-            system: System::new(spec, p),
-            u0: p.u0,
-            law,
-        }
+impl<'a> NumericSystem<'a> {
+    /// `system` (piecewise-linear components already configured) with the
+    /// components `terms` and their parameter values.
+    pub fn with_terms(system: System, terms: &'a [(&'a dyn ForceComponent, &'a [f64])]) -> Self {
+        Self { system, terms }
     }
 
-    fn phi(&self, v: f64) -> f64 {
-        self.law.map_or(1.0, |l| l.factor(v))
-    }
-
-    fn accel(&self, b: SpringBranch, u: f64, v: f64, d: f64) -> f64 {
+    /// The forces on spring branch `b` at state `k`.
+    pub fn forces(&self, b: SpringBranch, k: &Kinematics) -> Forces {
         let s = &self.system;
-        -(s.spring().force(b, u)
-            + s.friction().amplitude(u) * d * self.phi(v)
-            + s.damper_rate() * v)
+        let mut f = Forces {
+            spring: s.spring().force(b, k.u),
+            friction: s.friction().force(k.u, k.dir),
+            damper: s.damper_rate() * k.v,
+            extra: 0.0,
+        };
+        for (c, theta) in self.terms {
+            c.modify(theta, k, &mut f);
+        }
+        f
+    }
+
+    /// Direction of motion after a stop at `u` on branch `b`, or `None` if
+    /// the slider holds the mass (eq. 5.6 with every component's force).
+    fn start_dir(&self, b: SpringBranch, u: f64, travel: f64) -> Option<f64> {
+        let at = |dir| {
+            self.forces(
+                b,
+                &Kinematics {
+                    u,
+                    v: 0.0,
+                    dir,
+                    travel,
+                },
+            )
+        };
+        let f = at(1.0);
+        let drive = f.spring + f.extra;
+        if drive == 0.0 {
+            return None;
+        }
+        let dir = -drive.signum();
+        let f = at(dir);
+        (drive.abs() > f.friction.abs()).then_some(dir)
     }
 
     /// Samples the acceleration at `t_i = i dt` into `out`.
@@ -109,28 +119,37 @@ impl NumericSystem {
         if n == 0 {
             return Ok(());
         }
+        let mut kinks = Vec::new();
+        for (c, theta) in self.terms {
+            c.kinks(theta, &mut kinks);
+        }
+        kinks.retain(|x| x.is_finite());
+        kinks.truncate(MAX_KINKS);
         let t_end = start + dt * (n - 1) as f64 + 0.5 * dt;
         let sp = self.system.spring();
-        let fr = self.system.friction();
+        let has_slope = self.system.friction().has_slope();
+        let u0 = self.system.u0();
         let mut t = 0.0;
-        let (mut u, mut v) = (self.u0, 0.0);
+        let (mut u, mut v, mut s) = (u0, 0.0, 0.0);
         let mut branch = SpringBranch::Elastic {
             u_i: u,
             f_i: sp.virgin(u),
         };
-        // Direction after a stop, or None if it stays (eq. 5.6, friction at rest).
-        let start_dir = |b: SpringBranch, u: f64| {
-            let fs = sp.force(b, u);
-            (fs.abs() > fr.amplitude(u) * self.phi(0.0)).then(|| -fs.signum())
-        };
-        let mut dir = start_dir(branch, u);
+        let mut dir = self.start_dir(branch, u, s);
         let mut next = 0usize;
         let ode = Dopri5::new()
-            .with_rtol(1e-8)
+            .with_rtol(5e-9)
             .and_then(|o| o.with_atol(1e-11))
             .and_then(|o| o.with_h_max(0.05))
             .expect("valid tolerances");
         let mut phases = 0;
+        // Travel within a stretch of direction d that started at (u_s, s_s).
+        let state = |y: &[f64; 2], d: f64, u_s: f64, s_s: f64| Kinematics {
+            u: y[0],
+            v: y[1],
+            dir: d,
+            travel: s_s + d * (y[0] - u_s),
+        };
         while t < t_end && next < n {
             phases += 1;
             if phases > 100_000 {
@@ -145,32 +164,55 @@ impl NumericSystem {
             };
             let target = sp.next_event(branch, d);
             let b = branch;
-            let rhs = |_: f64, y: &[f64; 2]| [y[1], self.accel(b, y[0], y[1], d)];
+            let (u_s, s_s) = (u, s);
+            let rhs = |_: f64, y: &[f64; 2]| [y[1], self.forces(b, &state(y, d, u_s, s_s)).accel()];
             let events = |_: f64, y: &[f64; 2], g: &mut [f64]| {
                 g[0] = d * y[1];
                 g[1] = target.map_or(1.0, |(x, _)| d * (x - y[0]));
-                g[2] = if fr.has_slope() { y[0] } else { 1.0 };
+                g[2] = if has_slope { y[0] } else { 1.0 };
+                for (gk, x) in g[3..].iter_mut().zip(&kinks) {
+                    *gk = y[0] - x;
+                }
             };
+            let mut bad = None;
             let observe = |step: &crate::numeric::ode::DenseStep<2>| {
                 while next < n {
                     let ti = start + next as f64 * dt;
-                    if ti > step.t_end() {
+                    // A sample exactly at an event belongs to the phase
+                    // after it, as in the closed form (the last step ends
+                    // half a step past the last sample).
+                    if ti >= step.t_end() {
                         break;
                     }
                     let y = step.eval(ti.max(step.t_start()));
-                    out[next] = self.accel(b, y[0], y[1], d);
+                    let a = self.forces(b, &state(&y, d, u_s, s_s)).accel();
+                    if !a.is_finite() {
+                        bad.get_or_insert(ti);
+                    }
+                    out[next] = a;
                     next += 1;
                 }
             };
             // A phase that starts exactly on its kink must not stop at once.
-            let (u_start, v_start) = (u, if v * d < 0.0 { 0.0 } else { v });
+            let v_start = if v * d < 0.0 { 0.0 } else { v };
             let outcome = ode
-                .solve(rhs, t, [u_start, v_start], t_end, 3, events, observe)
+                .solve(
+                    rhs,
+                    t,
+                    [u, v_start],
+                    t_end,
+                    3 + kinks.len(),
+                    events,
+                    observe,
+                )
                 .map_err(|_| SimError::Diverged { t, u })?;
+            if let Some(t) = bad {
+                return Err(SimError::NotFinite { t });
+            }
             t = outcome.t;
-            u = outcome.y[0];
-            v = outcome.y[1];
-            if !(u.is_finite() && v.is_finite()) || u.abs() > 1e6 * self.u0.abs().max(1e-3) {
+            [u, v] = outcome.y;
+            s = s_s + d * (u - u_s);
+            if !(u.is_finite() && v.is_finite()) || u.abs() > 1e6 * u0.abs().max(1e-3) {
                 return Err(SimError::Diverged { t, u });
             }
             match outcome.stop {
@@ -178,7 +220,7 @@ impl NumericSystem {
                 Stop::Event { index: 0 } => {
                     v = 0.0;
                     branch = sp.unload(branch, u);
-                    dir = start_dir(branch, u);
+                    dir = self.start_dir(branch, u, s);
                 }
                 Stop::Event { index: 1 } => {
                     if let Some((x, nb)) = target {
@@ -190,7 +232,17 @@ impl NumericSystem {
             }
         }
         // Samples the last step did not reach (round-off at the very end).
-        let last = self.accel(branch, u, v, dir.unwrap_or(1.0));
+        let last = self
+            .forces(
+                branch,
+                &Kinematics {
+                    u,
+                    v,
+                    dir: dir.unwrap_or(1.0),
+                    travel: s,
+                },
+            )
+            .accel();
         for a in out[next..].iter_mut() {
             *a = last;
         }

@@ -5,6 +5,7 @@ use std::fmt;
 
 use serde::{Deserialize, Serialize};
 
+use super::component::ParamSpec;
 use super::error::ParamError;
 
 /// Name of one identification parameter, spelled as in the paper.
@@ -90,6 +91,45 @@ impl ParamName {
             ParamName::F2 => "second post-yield frequency, k2 = m (2 pi f2)^2",
             ParamName::U3 => "second yield displacement",
         }
+    }
+
+    /// Default prior bounds (uniform), in SI units: wide enough for the
+    /// isolation systems of the paper and beyond.
+    pub fn bounds(self) -> (f64, f64) {
+        match self {
+            ParamName::U0 => (0.005, 0.5),
+            ParamName::Uy => (0.0005, 0.05),
+            ParamName::UF0 => (0.0, 0.02),
+            ParamName::RF0 => (-0.1, 0.1),
+            ParamName::Zeta0 => (0.0, 0.2),
+            ParamName::F0 => (0.1, 2.0),
+            ParamName::F1 => (0.05, 2.0),
+            ParamName::F2 => (0.02, 2.0),
+            ParamName::U3 => (0.001, 0.5),
+        }
+    }
+
+    /// A physically meaningful change, in the parameter's unit: a
+    /// millimetre of displacement, a hundredth of a ratio, 0.01 Hz.
+    pub fn scale(self) -> f64 {
+        match self {
+            ParamName::U0 | ParamName::Uy | ParamName::UF0 | ParamName::U3 => 1e-3,
+            ParamName::RF0 | ParamName::Zeta0 => 0.01,
+            ParamName::F0 | ParamName::F1 | ParamName::F2 => 0.01,
+        }
+    }
+
+    /// The declaration of the parameter (name, unit, bounds, meaning,
+    /// scale); its neutral value is the one that switches its component off
+    /// where there is one (`uF0`, `rF0`, `zeta0`: 0).
+    pub fn spec(self) -> ParamSpec {
+        let neutral = match self {
+            ParamName::UF0 | ParamName::RF0 | ParamName::Zeta0 => 0.0,
+            _ => 0.5 * (self.bounds().0 + self.bounds().1),
+        };
+        ParamSpec::new(self.as_str(), self.unit(), self.bounds(), neutral)
+            .meaning(self.meaning())
+            .scale(self.scale())
     }
 
     /// Parse a paper symbol.

@@ -91,7 +91,19 @@ impl Response {
                 requirement: "must be a finite number > 0",
             });
         }
-        let system = System::new(spec, params);
+        Self::of_system(System::new(spec, params), duration, opts)
+    }
+
+    /// The response of a resolved system (a [`Model`](super::Model)'s
+    /// piecewise-linear components configured: [`Model::system`](super::Model::system)).
+    pub fn of_system(system: System, duration: f64, opts: &SimOptions) -> Result<Self, SimError> {
+        if !(duration.is_finite() && duration > 0.0) {
+            return Err(SimError::Grid {
+                name: "duration",
+                value: duration,
+                requirement: "must be a finite number > 0",
+            });
+        }
         let mut phases = Vec::new();
         system.run(duration, opts, &mut phases)?;
         Ok(Self {

@@ -157,6 +157,16 @@ impl System {
         &self.friction
     }
 
+    /// The slider, to be changed by a piecewise-linear component.
+    pub fn friction_mut(&mut self) -> &mut Friction {
+        &mut self.friction
+    }
+
+    /// Displacement at release (m).
+    pub fn u0(&self) -> f64 {
+        self.u0
+    }
+
     /// Damper rate `c/m = 2 alpha` (1/s).
     pub fn damper_rate(&self) -> f64 {
         2.0 * self.alpha
@@ -181,7 +191,7 @@ impl System {
         // Direction after a stop at u on branch b, or None if it stays (eq. 5.6).
         let start = |b: SpringBranch, u: f64| {
             let fs = sp.force(b, u);
-            (fs.abs() > fr.amplitude(u)).then(|| -fs.signum())
+            (fs.abs() > fr.capacity(u, -fs.signum())).then(|| -fs.signum())
         };
         let mut dir = start(branch, u);
         let mut count = 0usize;

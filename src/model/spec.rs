@@ -229,9 +229,9 @@ impl FromStr for ModelSpec {
     fn from_str(s: &str) -> Result<Self, SpecError> {
         let (mut spring, mut friction, mut damper) = (None, None, None);
         for part in s.split('+').map(str::trim) {
-            let dup = |kind| SpecError::Duplicate {
+            let dup = |kind: &str| SpecError::Duplicate {
                 spec: s.to_string(),
-                kind,
+                kind: kind.to_string(),
             };
             match part {
                 "linear" | "bilinear" | "trilinear" => {
@@ -261,7 +261,12 @@ impl FromStr for ModelSpec {
                 }
                 // "none" may stand for a missing friction or damper.
                 "none" => {}
-                other => return Err(SpecError::Unknown(other.to_string())),
+                other => {
+                    return Err(SpecError::Unknown {
+                        name: other.to_string(),
+                        known: "linear, bilinear, trilinear, coulomb, lcfm, viscous".into(),
+                    })
+                }
             }
         }
         Ok(ModelSpec {
@@ -322,7 +327,7 @@ mod tests {
         ));
         assert!(matches!(
             "trilinear+magic".parse::<ModelSpec>(),
-            Err(SpecError::Unknown(_))
+            Err(SpecError::Unknown { .. })
         ));
     }
 

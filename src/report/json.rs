@@ -81,6 +81,16 @@ pub struct FitReport {
     pub log_likelihood: f64,
     /// Log-prior at the MAP.
     pub log_prior: f64,
+    /// Maximised log-likelihood at the MAP, `sigma` profiled (the one BIC
+    /// uses; for AR(1) noise on the whitened residuals).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub max_log_likelihood: Option<f64>,
+    /// BIC at the MAP: `(d + 1) ln N - 2 max_log_likelihood`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub bic: Option<f64>,
+    /// Laplace log-evidence at the MAP (with `--evidence`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub log_evidence: Option<f64>,
     /// Residual standard deviation at the MAP, `sqrt(sse / n)` (m/s^2).
     pub sigma_hat: f64,
     /// Posterior evaluations in all (CMA-ES and polish).
@@ -185,6 +195,9 @@ impl FitReport {
             log_posterior: map.eval.log_posterior,
             log_likelihood: map.eval.log_likelihood,
             log_prior: map.eval.log_prior,
+            max_log_likelihood: None,
+            bic: None,
+            log_evidence: None,
             sigma_hat,
             evaluations: map.evaluations(),
             cmaes_runs: map
@@ -221,6 +234,9 @@ impl FitReport {
         chains: Vec<String>,
     ) -> Self {
         let mut r = Self::from_map(model, seed, noise, data, &fit.map);
+        r.max_log_likelihood = Some(fit.comparison.log_likelihood);
+        r.bic = Some(fit.comparison.bic);
+        r.log_evidence = fit.log_evidence;
         let names = fit.names().to_vec();
         let by_name = |v: &[f64]| -> BTreeMap<String, f64> {
             names.iter().cloned().zip(v.iter().copied()).collect()

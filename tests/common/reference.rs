@@ -40,11 +40,12 @@ struct Model {
     yields: bool,
     ff0: f64,
     kf: f64,
+    asym: f64,
     c: f64,
 }
 
 impl Model {
-    fn new(spec: &ModelSpec, p: &Params) -> Self {
+    fn new(spec: &ModelSpec, p: &Params, asym: f64) -> Self {
         let w2 = |f: f64| (2.0 * std::f64::consts::PI * f).powi(2);
         let k0 = w2(p.f0);
         let (k1, k2, u3) = match spec.spring {
@@ -66,6 +67,7 @@ impl Model {
             yields: spec.spring != SpringKind::Linear,
             ff0,
             kf,
+            asym,
             c: 2.0 * p.zeta0 * k0.sqrt(),
         }
     }
@@ -96,7 +98,12 @@ impl Model {
         if mode == Mode::Rest {
             return 0.0;
         }
-        -(self.c * y[1] + y[2] + dir * (self.ff0 + self.kf * y[0].abs()))
+        -(self.c * y[1] + y[2] + self.capacity(dir, y[0]) * dir)
+    }
+
+    /// Friction amplitude sliding in direction `dir` at `u`.
+    fn capacity(&self, dir: f64, u: f64) -> f64 {
+        (1.0 + self.asym * dir) * (self.ff0 + self.kf * u.abs())
     }
 
     fn kinks(&self) -> Vec<f64> {
@@ -111,7 +118,19 @@ impl Model {
 
 /// Integrate a release test and sample it at `t_i = i dt`, `i < n`.
 pub fn solve(spec: &ModelSpec, p: &Params, dt: f64, n: usize) -> Result<RefSolution, String> {
-    let m = Model::new(spec, p);
+    solve_asymmetric(spec, p, 0.0, dt, n)
+}
+
+/// [`solve`] with friction `(1 + asym dir)` times its amplitude when
+/// sliding in direction `dir`.
+pub fn solve_asymmetric(
+    spec: &ModelSpec,
+    p: &Params,
+    asym: f64,
+    dt: f64,
+    n: usize,
+) -> Result<RefSolution, String> {
+    let m = Model::new(spec, p, asym);
     let ode = Dopri5::new()
         .with_rtol(1e-13)
         .and_then(|o| o.with_atol(1e-16))
@@ -134,7 +153,7 @@ pub fn solve(spec: &ModelSpec, p: &Params, dt: f64, n: usize) -> Result<RefSolut
     let mut jumps = vec![0.0];
     // Stop rule (eq. 5.6) at a state at rest.
     let decide = |y: &[f64; 3]| -> Option<f64> {
-        (y[2].abs() > m.ff0 + m.kf * y[0].abs()).then(|| -y[2].signum())
+        (y[2].abs() > m.capacity(-y[2].signum(), y[0])).then(|| -y[2].signum())
     };
     match decide(&y) {
         Some(d) => dir = d,

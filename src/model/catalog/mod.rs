@@ -1,0 +1,29 @@
+//! The catalog: every built-in component, one file each.
+//!
+//! | component | kind | parameters | engine |
+//! |---|---|---|---|
+//! | `linear`, `bilinear`, `trilinear` | spring law | `f0`; `uy, f0, f1`; `uy, f0, f1, f2, u3` | closed form |
+//! | `coulomb`, `lcfm` | friction law | `uF0`; `uF0, rF0` | closed form |
+//! | `viscous` | damper | `zeta0` | closed form |
+//! | `asymmetric-friction` | force | `a_F` | closed form |
+//! | `velocity-friction` | force | `r_mu`, `v_t` | numerical |
+//! | `friction-decay` | force | `kappa_F` | numerical |
+//! | `degradation` | force | `kappa_k` | numerical |
+//! | `offset` | output | `a_off` | (output) |
+//!
+//! The release displacement `u0` belongs to the model itself: every model
+//! is released from it.
+
+mod asymmetric_friction;
+mod core;
+mod degradation;
+mod friction_decay;
+mod offset;
+mod velocity_friction;
+
+pub use asymmetric_friction::AsymmetricFriction;
+pub use core::CoreLaw;
+pub use degradation::Degradation;
+pub use friction_decay::FrictionDecay;
+pub use offset::Offset;
+pub use velocity_friction::VelocityFriction;

@@ -1,0 +1,215 @@
+//! Components of a model: the terms of the equation of motion (force
+//! components) and what stands between the motion and the accelerometer
+//! (output components). Each declares its parameters; the [`Model`] lays
+//! them out and picks the engine.
+//!
+//! A force component either fills one of the three slots of the paper's
+//! model (spring law, friction law, damper: [`Core`]) or changes the forces
+//! of the equation of motion at a state ([`ForceComponent::modify`]). The
+//! model runs the closed form when every force component is piecewise
+//! linear ([`ForceComponent::piecewise_linear`]: it changes only the
+//! resolved linear system, [`ForceComponent::configure`]) and the numerical
+//! Dormand-Prince engine otherwise.
+//!
+//! [`Model`]: super::Model
+
+use super::error::ParamError;
+use super::simulate::System;
+use super::spec::{DamperKind, FrictionKind, SpringKind};
+
+/// One parameter of a component: what it is, in which unit, where its
+/// prior lives and which value switches the component off.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ParamSpec {
+    /// Name in `theta`, outputs and prior files (e.g. `r_mu`).
+    pub name: String,
+    /// Mathematical symbol (e.g. `mu_slow/mu_fast`).
+    pub symbol: String,
+    /// SI unit (`-` for a ratio).
+    pub unit: String,
+    /// Default prior: uniform on these bounds.
+    pub bounds: (f64, f64),
+    /// The value at which the component has no effect (its warm start when
+    /// the component is added to a fitted model).
+    pub neutral: f64,
+    /// One line: the physical meaning.
+    pub meaning: String,
+    /// A physically meaningful change of the parameter, in its unit: the
+    /// yardstick reports use to judge a posterior sd.
+    pub scale: f64,
+}
+
+impl ParamSpec {
+    /// A parameter with its name, unit, bounds and neutral value; the
+    /// symbol defaults to the name and the scale to a tenth of the bounds.
+    pub fn new(name: &str, unit: &str, bounds: (f64, f64), neutral: f64) -> Self {
+        Self {
+            name: name.to_string(),
+            symbol: name.to_string(),
+            unit: unit.to_string(),
+            bounds,
+            neutral,
+            meaning: String::new(),
+            scale: 0.1 * (bounds.1 - bounds.0),
+        }
+    }
+
+    /// With a symbol.
+    pub fn symbol(mut self, s: &str) -> Self {
+        self.symbol = s.to_string();
+        self
+    }
+
+    /// With a meaning.
+    pub fn meaning(mut self, s: &str) -> Self {
+        self.meaning = s.to_string();
+        self
+    }
+
+    /// With a physical scale.
+    pub fn scale(mut self, s: f64) -> Self {
+        self.scale = s;
+        self
+    }
+}
+
+/// The slot of the paper's model a core component fills.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Core {
+    /// The rubber-bearing spring law.
+    Spring(SpringKind),
+    /// The slider's friction law.
+    Friction(FrictionKind),
+    /// The damper.
+    Damper(DamperKind),
+}
+
+/// Which slot: spring, friction or damper.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Slot {
+    /// The rubber-bearing spring.
+    Spring,
+    /// The slider.
+    Friction,
+    /// The damper.
+    Damper,
+}
+
+impl Core {
+    /// The slot it fills.
+    pub fn slot(self) -> Slot {
+        match self {
+            Core::Spring(_) => Slot::Spring,
+            Core::Friction(_) => Slot::Friction,
+            Core::Damper(_) => Slot::Damper,
+        }
+    }
+}
+
+/// The state the forces are evaluated at.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Kinematics {
+    /// Displacement (m).
+    pub u: f64,
+    /// Velocity (m/s).
+    pub v: f64,
+    /// Direction of sliding, `+1` or `-1` (the direction the mass is about
+    /// to move when `v = 0`).
+    pub dir: f64,
+    /// Distance travelled since the release, `int |u'| dt` (m).
+    pub travel: f64,
+}
+
+/// The force terms per unit mass (m/s^2) at a state, signed as in the
+/// equation of motion `u'' = -(spring + friction + damper + extra)`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Forces {
+    /// Rubber-bearing spring.
+    pub spring: f64,
+    /// Slider (its sign is the direction of sliding).
+    pub friction: f64,
+    /// Viscous damper.
+    pub damper: f64,
+    /// Any other force a component adds.
+    pub extra: f64,
+}
+
+impl Forces {
+    /// The acceleration they give.
+    pub fn accel(&self) -> f64 {
+        -(self.spring + self.friction + self.damper + self.extra)
+    }
+}
+
+/// A term of the equation of motion.
+///
+/// A user writes one by giving its name, parameters and either
+/// [`configure`](Self::configure) (piecewise linear: closed form) or
+/// [`modify`](Self::modify) (anything else: numerical engine).
+pub trait ForceComponent: Send + Sync {
+    /// Name in model specs (`velocity-friction`, `degradation`, ...).
+    fn name(&self) -> &str;
+    /// Its parameters, in order.
+    fn params(&self) -> Vec<ParamSpec>;
+    /// One line: what it models.
+    fn meaning(&self) -> &str;
+    /// How a record shows that it is missing (offered with candidates).
+    fn signature(&self) -> &str {
+        self.meaning()
+    }
+    /// The slot it fills, for the paper's spring laws, friction laws and
+    /// damper; `None` for a component that modifies the forces.
+    fn core(&self) -> Option<Core> {
+        None
+    }
+    /// The core component this one replaces in a fitted model when added
+    /// (`trilinear` upgrades `bilinear`).
+    fn upgrades(&self) -> Option<&str> {
+        None
+    }
+    /// A slot that must be filled for it to make sense (a friction law
+    /// needs a slider).
+    fn requires(&self) -> Option<Slot> {
+        None
+    }
+    /// Whether every phase stays linear with it, so the closed form (after
+    /// [`configure`](Self::configure)) solves it exactly.
+    fn piecewise_linear(&self) -> bool;
+    /// Checks its parameter values (the model refuses others).
+    fn check(&self, theta: &[f64]) -> Result<(), ParamError> {
+        let _ = theta;
+        Ok(())
+    }
+    /// Changes the resolved linear system (piecewise-linear components).
+    fn configure(&self, theta: &[f64], system: &mut System) {
+        let _ = (theta, system);
+    }
+    /// Changes the forces at a state (components solved numerically).
+    fn modify(&self, theta: &[f64], state: &Kinematics, forces: &mut Forces) {
+        let _ = (theta, state, forces);
+    }
+    /// Displacements where its force has a kink: the numerical engine
+    /// stops a step there instead of smoothing over it.
+    fn kinks(&self, theta: &[f64], out: &mut Vec<f64>) {
+        let _ = (theta, out);
+    }
+    /// Warm start of its parameters when added to a fitted model whose
+    /// values `current` gives by name: by default the neutral values.
+    fn warm_start(&self, current: &dyn Fn(&str) -> Option<f64>) -> Vec<f64> {
+        let _ = current;
+        self.params().iter().map(|p| p.neutral).collect()
+    }
+}
+
+/// What the accelerometer reports instead of the motion's acceleration: an
+/// offset, a superstructure mode, a sensor's filter.
+pub trait OutputComponent: Send + Sync {
+    /// Name in model specs (`offset`, ...).
+    fn name(&self) -> &str;
+    /// Its parameters, in order.
+    fn params(&self) -> Vec<ParamSpec>;
+    /// One line: what it models and how it shows in a record.
+    fn meaning(&self) -> &str;
+    /// Applies it with parameters `theta` to `accel` sampled every `dt`.
+    fn apply(&self, theta: &[f64], dt: f64, accel: &mut [f64]);
+}

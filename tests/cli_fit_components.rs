@@ -1,0 +1,84 @@
+//! `hbis fit` on a model with components beyond the closed-form core:
+//! velocity-dependent friction (numerical engine) and an accelerometer
+//! offset. It samples a converged posterior and writes the files of any
+//! fit, with BIC and the Laplace evidence.
+
+#[path = "common/bin.rs"]
+#[allow(dead_code)]
+mod bin;
+
+use bin::{hbis, stderr};
+
+use hbis::data::synthesize;
+use hbis::model::{Model, Params};
+use rand::{rngs::StdRng, SeedableRng};
+
+const MODEL: &str = "trilinear+lcfm+viscous+velocity-friction+offset";
+
+#[test]
+fn fit_samples_a_model_with_velocity_friction_and_an_offset() {
+    let dir = tempfile::tempdir().unwrap();
+    let model = Model::parse(MODEL).unwrap();
+    let truth = model
+        .theta_from_params(
+            &Params::table_8_1(5).unwrap(),
+            &[("r_mu", 0.4), ("v_t", 0.03), ("a_off", 0.02)],
+        )
+        .unwrap();
+    let mut rng = StdRng::seed_from_u64(21);
+    let syn = synthesize(&model, &truth, 0.005, 2001, 0.015, &mut rng).unwrap();
+    std::fs::write(dir.path().join("rec.csv"), syn.record.to_csv()).unwrap();
+    let o = hbis(
+        dir.path(),
+        &[
+            "fit",
+            "--data",
+            "rec.csv",
+            "--model",
+            MODEL,
+            "--out",
+            "out",
+            "--seed",
+            "3",
+            "--ensembles",
+            "2",
+            "--tau-multiple",
+            "20",
+            "--evidence",
+        ],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = dir.path().join("out");
+    for f in [
+        "fit.json",
+        "fit.csv",
+        "chains/chain-1.csv",
+        "chains/chain-2.csv",
+        #[cfg(feature = "figures")]
+        "fit.png",
+        #[cfg(feature = "figures")]
+        "corner.png",
+        #[cfg(feature = "figures")]
+        "trace.png",
+    ] {
+        assert!(out.join(f).is_file(), "{f} missing");
+    }
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("fit.json")).unwrap()).unwrap();
+    assert_eq!(v["model"], MODEL);
+    let s = &v["sampling"];
+    assert_eq!(s["converged"], true, "{s}");
+    let rhat = s["rhat"].as_object().unwrap();
+    assert_eq!(rhat.len(), 12);
+    for (name, r) in rhat {
+        assert!(r.as_f64().unwrap() <= 1.01, "R-hat of {name}: {r}");
+    }
+    assert!(v["bic"].as_f64().unwrap().is_finite());
+    assert!(v["log_evidence"].as_f64().unwrap().is_finite());
+    // The truth's component values lie in their 95 % intervals.
+    for (name, t) in [("r_mu", 0.4), ("v_t", 0.03), ("a_off", 0.02)] {
+        let p = &v["posterior"][name];
+        let (lo, hi) = (p["q025"].as_f64().unwrap(), p["q975"].as_f64().unwrap());
+        assert!(lo <= t && t <= hi, "{name}: {t} outside [{lo}, {hi}]");
+    }
+}
