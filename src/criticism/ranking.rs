@@ -129,29 +129,41 @@ pub const NUMERIC_BUDGET: usize = 20_000;
 /// BIC threshold for support.
 pub const SUPPORT: f64 = 10.0;
 
-/// When the record cannot tell the best candidate from another: both
-/// supported and within [`SUPPORT`] of each other in BIC. The sentence
-/// names both and their numbers.
+/// When the best candidate is not clearly told from another: both
+/// supported, and the runner-up reaches at least half of the best's BIC
+/// gain or comes within [`SUPPORT`] of it. The sentence names both, their
+/// numbers, and whether the difference decides (at least [`SUPPORT`]).
 ///
 /// ```
 /// use hbis::criticism::ranking::caution_for;
-/// assert_eq!(caution_for(&[("lcfm", -24.7), ("friction-decay", -14.5)]), None);
-/// let s = caution_for(&[("lcfm", -24.7), ("friction-decay", -16.0)]).unwrap();
-/// assert!(s.contains("friction-decay") && s.contains("8.7"));
+/// // A distant runner-up: nothing to say.
+/// assert_eq!(caution_for(&[("trilinear", -978.5), ("velocity-friction", -65.4)]), None);
+/// // Friction that decays with travel mistaken for lcfm (docs/components.md).
+/// let s = caution_for(&[("lcfm", -24.7), ("friction-decay", -13.2)]).unwrap();
+/// assert!(s.contains("friction-decay") && s.contains("53 %") && s.contains("11.5"));
+/// assert!(caution_for(&[("a", -30.0), ("b", -25.0)]).unwrap().contains("does not tell them apart"));
 /// ```
 pub fn caution_for(ranked: &[(&str, f64)]) -> Option<String> {
     let (best, b) = *ranked.first()?;
-    let rivals: Vec<String> = ranked[1..]
-        .iter()
-        .filter(|(_, d)| *d < -SUPPORT && *d - b < SUPPORT)
-        .map(|(n, d)| format!("`{n}` (delta BIC {d:+.1}, {:.1} behind)", d - b))
-        .collect();
-    if b >= -SUPPORT || rivals.is_empty() {
+    let &(rival, d) = ranked.get(1)?;
+    let close = d - b < SUPPORT.max(0.5 * b.abs());
+    if b >= -SUPPORT || d >= -SUPPORT || !close {
         return None;
     }
+    let share = 100.0 * d / b;
+    let verdict = if d - b < SUPPORT {
+        format!(
+            "the difference, {:.1} in BIC, is under {SUPPORT} and does not tell them apart: this record does not say which of them it holds",
+            d - b
+        )
+    } else {
+        format!(
+            "the difference, {:.1} in BIC, favours `{best}`, but one may stand in for the other; the ladder adds `{rival}` next only if it still pays",
+            d - b
+        )
+    };
     Some(format!(
-        "`{best}` (delta BIC {b:+.1}) is not told apart from {}: the difference is under {SUPPORT} in BIC, so this record does not say which of them explains the residual (it may hold more than one: the ladder adds another next only if it still pays); `{best}` is ranked first without strong evidence against the others.",
-        rivals.join(", ")
+        "`{best}` (delta BIC {b:+.1}) and `{rival}` (delta BIC {d:+.1}) both explain much of the residual (`{rival}` reaches {share:.0} % of the best's gain in BIC): {verdict}."
     ))
 }
 
