@@ -4,7 +4,7 @@
 use criterion::{criterion_group, criterion_main, Criterion};
 use hbis::criticism::{diagnosis_of, fit_model, ladder, rank_candidates};
 use hbis::data::{synthesize, Aligned};
-use hbis::inference::MapSettings;
+use hbis::inference::{MapSettings, Noise};
 use hbis::model::{Model, ModelSpec, Params, Registry};
 use rand::{rngs::StdRng, SeedableRng};
 
@@ -32,7 +32,7 @@ fn criticism(c: &mut Criterion) {
     g.sample_size(10);
     g.bench_function("diagnose_8_candidates", |b| {
         b.iter(|| {
-            let fit = fit_model(&start, &data, None, &settings, 1).unwrap();
+            let fit = fit_model(&start, &data, Noise::White, None, &settings, 1).unwrap();
             let d = diagnosis_of(&start, &fit, &data).unwrap();
             let ranked = rank_candidates(&registry, &start, &fit, &data, &settings, 2).unwrap();
             assert_eq!(ranked.candidates.len(), 8);
@@ -40,7 +40,18 @@ fn criticism(c: &mut Criterion) {
         })
     });
     g.bench_function("ladder_from_bilinear_coulomb", |b| {
-        b.iter(|| ladder(&registry, start.clone(), &data, &settings, 1, 6).unwrap())
+        b.iter(|| {
+            ladder(
+                &registry,
+                start.clone(),
+                &data,
+                Noise::White,
+                &settings,
+                1,
+                6,
+            )
+            .unwrap()
+        })
     });
     g.finish();
 }

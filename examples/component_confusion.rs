@@ -10,7 +10,7 @@
 
 use hbis::criticism::{caution, diagnose_model};
 use hbis::data::synthesize;
-use hbis::inference::MapSettings;
+use hbis::inference::{MapSettings, Noise};
 use hbis::model::{Params, Registry};
 use rand::{rngs::StdRng, SeedableRng};
 
@@ -85,8 +85,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let syn = synthesize(&truth, &theta, 0.005, 2001, s.noise, &mut rng)?;
         let data = syn.record.aligned(None)?;
         let start = registry.parse(s.start)?;
-        let (fit, _, ranked) =
-            diagnose_model(&registry, &start, &data, &MapSettings::default(), 1)?;
+        let (fit, _, ranked) = diagnose_model(
+            &registry,
+            &start,
+            &data,
+            Noise::White,
+            &MapSettings::default(),
+            1,
+        )?;
         println!(
             "{} = {} in {} (Test {}, noise {} %), from {}: start e2/floor {:.3}",
             s.value.0,

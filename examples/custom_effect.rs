@@ -21,7 +21,7 @@ use std::sync::Arc;
 
 use hbis::criticism::{diagnosis_of, fit_model};
 use hbis::data::synthesize;
-use hbis::inference::MapSettings;
+use hbis::inference::{MapSettings, Noise};
 use hbis::model::{Model, OutputComponent, ParamSpec, Params, Registry};
 use rand::{rngs::StdRng, SeedableRng};
 
@@ -85,7 +85,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         .aligned(None)?;
     let settings = MapSettings::default();
     let rigid = Model::parse("trilinear+lcfm+viscous")?;
-    let fit = fit_model(&rigid, &data, None, &settings, 1)?;
+    let fit = fit_model(&rigid, &data, Noise::White, None, &settings, 1)?;
     println!(
         "rigid model: e2 = {:.5}\n{}",
         fit.e2,
@@ -98,7 +98,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         .into_iter()
         .find(|c| c.effect == "superstructure")
         .expect("a registered component is a candidate");
-    let flexible = fit_model(&with_mode, &data, Some(candidate.start), &settings, 2)?;
+    let flexible = fit_model(
+        &with_mode,
+        &data,
+        Noise::White,
+        Some(candidate.start),
+        &settings,
+        2,
+    )?;
     println!(
         "\nwith the superstructure mode: e2 = {:.5}, BIC {:+.1}",
         flexible.e2,

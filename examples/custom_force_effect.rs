@@ -20,7 +20,7 @@ use std::sync::Arc;
 
 use hbis::criticism::ladder;
 use hbis::data::{synthesize, Aligned};
-use hbis::inference::MapSettings;
+use hbis::inference::{MapSettings, Noise};
 use hbis::model::{ForceComponent, Forces, Kinematics, Model, ParamSpec, Params, Registry};
 use rand::{rngs::StdRng, SeedableRng};
 
@@ -87,7 +87,15 @@ pub fn setup(seed: u64) -> Result<(Registry, Aligned, f64), Box<dyn std::error::
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let (registry, data, floor) = setup(5)?;
     let start = Model::parse("trilinear+lcfm+viscous")?;
-    let steps = ladder(&registry, start, &data, &MapSettings::default(), 1, 3)?;
+    let steps = ladder(
+        &registry,
+        start,
+        &data,
+        Noise::White,
+        &MapSettings::default(),
+        1,
+        3,
+    )?;
     println!("noise floor e2 = {floor:.5}");
     for s in &steps {
         let added = s.added.as_deref().unwrap_or("(start)");

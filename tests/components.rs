@@ -8,7 +8,7 @@ mod common;
 
 use hbis::criticism::{adopt, diagnose_model, ladder};
 use hbis::data::{synthesize, Aligned};
-use hbis::inference::MapSettings;
+use hbis::inference::{MapSettings, Noise};
 use hbis::model::{ForwardModel, Model, Params, Registry, Response, SimOptions};
 use rand::rngs::StdRng;
 use rand::{RngExt, SeedableRng};
@@ -177,8 +177,15 @@ fn hidden(h: Hidden) {
         let v = values(&mut rng);
         let theta = truth_model.theta_from_params(&p, &v).unwrap();
         let (data, floor) = record(&truth_model, &theta, noise, seed + k as u64);
-        let (fit, _, ranked) =
-            diagnose_model(&registry, &start, &data, &MapSettings::default(), 1).unwrap();
+        let (fit, _, ranked) = diagnose_model(
+            &registry,
+            &start,
+            &data,
+            Noise::White,
+            &MapSettings::default(),
+            1,
+        )
+        .unwrap();
         let names: Vec<(&str, f64)> = ranked
             .iter()
             .map(|c| (c.effect.as_str(), c.delta_bic))
@@ -251,7 +258,16 @@ fn hidden_friction_decay_is_found() {
 fn a_users_force_component_is_added_by_the_ladder() {
     let (registry, data, floor) = custom_force_effect::setup(5).unwrap();
     let start = Model::parse("trilinear+lcfm+viscous").unwrap();
-    let steps = ladder(&registry, start, &data, &MapSettings::default(), 1, 3).unwrap();
+    let steps = ladder(
+        &registry,
+        start,
+        &data,
+        Noise::White,
+        &MapSettings::default(),
+        1,
+        3,
+    )
+    .unwrap();
     let models: Vec<(&str, f64)> = steps
         .iter()
         .map(|s| (s.model.as_str(), s.e2 / floor))
@@ -277,8 +293,18 @@ fn diagnose_and_the_ladders_first_step_agree() {
     let theta = truth_model.theta_from_params(&p, &[]).unwrap();
     let (data, _) = record(&truth_model, &theta, 0.015, 77);
     let settings = MapSettings::default();
-    let (fit, _, ranked) = diagnose_model(&registry, &model, &data, &settings, 9).unwrap();
-    let steps = ladder(&registry, model.clone(), &data, &settings, 9, 0).unwrap();
+    let (fit, _, ranked) =
+        diagnose_model(&registry, &model, &data, Noise::White, &settings, 9).unwrap();
+    let steps = ladder(
+        &registry,
+        model.clone(),
+        &data,
+        Noise::White,
+        &settings,
+        9,
+        0,
+    )
+    .unwrap();
     assert_eq!(steps.len(), 1);
     assert_eq!(steps[0].e2, fit.e2);
     assert_eq!(steps[0].candidates.len(), ranked.len());
@@ -290,4 +316,71 @@ fn diagnose_and_the_ladders_first_step_agree() {
     }
     assert!(ranked.iter().all(|c| c.effect != "velocity-friction"));
     assert_eq!(model.param_names().len(), 6);
+}
+
+/// Criticism under AR(1) noise: every fit carries `rho`, and on a record
+/// whose only departure from the start model is correlated noise, no
+/// component is supported.
+#[test]
+fn criticism_fits_ar1_noise_and_finds_nothing_in_coloured_noise() {
+    use rand_distr::{Distribution, Normal};
+    let registry = Registry::builtin()
+        .withholding("velocity-friction")
+        .withholding("friction-decay")
+        .withholding("degradation");
+    let model = registry.parse("trilinear+lcfm+viscous").unwrap();
+    let theta = model
+        .theta_from_params(&Params::table_8_1(5).unwrap(), &[])
+        .unwrap();
+    let clean = synthesize(
+        &model,
+        &theta,
+        0.005,
+        2001,
+        0.0,
+        &mut StdRng::seed_from_u64(1),
+    )
+    .unwrap()
+    .clean;
+    let peak = clean.iter().fold(0.0f64, |m, a| m.max(a.abs()));
+    let (rho, sd) = (0.6, 0.015 * peak * (1.0f64 - 0.36).sqrt());
+    let normal = Normal::new(0.0, sd).unwrap();
+    let mut rng = StdRng::seed_from_u64(5);
+    let mut e = 0.0;
+    let a: Vec<f64> = clean
+        .iter()
+        .map(|c| {
+            e = rho * e + normal.sample(&mut rng);
+            c + e
+        })
+        .collect();
+    let t = (0..a.len()).map(|i| i as f64 * 0.005).collect();
+    let data = hbis::data::Record::new(t, a)
+        .unwrap()
+        .aligned(None)
+        .unwrap();
+    let (fit, _, ranked) = diagnose_model(
+        &registry,
+        &model,
+        &data,
+        Noise::Ar1,
+        &MapSettings::default(),
+        3,
+    )
+    .unwrap();
+    assert_eq!(fit.names.last().map(String::as_str), Some("rho"));
+    let rho_hat = *fit.theta.last().unwrap();
+    assert!((rho_hat - rho).abs() < 0.05, "rho {rho_hat}");
+    assert_eq!(ranked.len(), 2);
+    assert!(
+        ranked.iter().all(|c| !c.supported),
+        "{:?}",
+        ranked
+            .iter()
+            .map(|c| (&c.effect, c.delta_bic))
+            .collect::<Vec<_>>()
+    );
+    assert!(ranked
+        .iter()
+        .all(|c| c.fit.names.last().map(String::as_str) == Some("rho")));
 }

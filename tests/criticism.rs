@@ -10,7 +10,7 @@ use std::sync::Arc;
 
 use hbis::criticism::{diagnose_model, diagnosis_of, fit_model, ladder};
 use hbis::data::{synthesize, Aligned};
-use hbis::inference::MapSettings;
+use hbis::inference::{MapSettings, Noise};
 use hbis::model::{ForwardModel, Model, ModelSpec, OutputComponent, Params, Registry};
 use rand::{rngs::StdRng, SeedableRng};
 
@@ -65,8 +65,15 @@ fn hidden_in(
     let (data, floor) = record(truth_model, truth, seed);
     let model = Model::parse(start).unwrap();
     let settings = MapSettings::default();
-    let (fit, _, ranked) =
-        diagnose_model(&Registry::builtin(), &model, &data, &settings, 1).unwrap();
+    let (fit, _, ranked) = diagnose_model(
+        &Registry::builtin(),
+        &model,
+        &data,
+        Noise::White,
+        &settings,
+        1,
+    )
+    .unwrap();
     let names: Vec<&str> = ranked.iter().map(|c| c.effect.as_str()).collect();
     assert_eq!(names[0], effect, "ranking {names:?}");
     assert!(ranked[0].supported);
@@ -136,6 +143,7 @@ fn ladder_from_bilinear_coulomb_recovers_the_full_model() {
         &Registry::builtin(),
         start,
         &data,
+        Noise::White,
         &MapSettings::default(),
         1,
         6,
@@ -169,7 +177,15 @@ fn an_unmodelled_superstructure_mode_is_named_with_its_frequency() {
         )
         .unwrap();
     let (data, _) = record(&flexible, &truth, 8);
-    let fit = fit_model(&rigid, &data, None, &MapSettings::default(), 1).unwrap();
+    let fit = fit_model(
+        &rigid,
+        &data,
+        Noise::White,
+        None,
+        &MapSettings::default(),
+        1,
+    )
+    .unwrap();
     let d = diagnosis_of(&rigid, &fit, &data).unwrap();
     assert!(
         (d.dominant_frequency_hz - 4.5).abs() < 0.1,

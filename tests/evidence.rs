@@ -22,8 +22,22 @@ fn laplace_evidence_agrees_with_tmcmc() {
         .aligned(None)
         .unwrap();
     let model = Model::from(spec);
-    let fit = fit_model(&model, &data, None, &MapSettings::default(), 3).unwrap();
-    let post = Posterior::new(model.clone(), data, priors_for(&model), Noise::White).unwrap();
+    let fit = fit_model(
+        &model,
+        &data,
+        Noise::White,
+        None,
+        &MapSettings::default(),
+        3,
+    )
+    .unwrap();
+    let post = Posterior::new(
+        model.clone(),
+        data,
+        priors_for(&model, Noise::White),
+        Noise::White,
+    )
+    .unwrap();
     let (lower, upper): (Vec<f64>, Vec<f64>) = model.bounds().into_iter().unzip();
     let ln_like = |x: &[f64]| {
         let e = post.evaluate(x).unwrap();

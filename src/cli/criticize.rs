@@ -9,7 +9,7 @@ use hbis::criticism::{
     diagnose_model, ladder_observed, place_release, Diagnostics, ModelFit, RankedCandidate, Step,
 };
 use hbis::data::{Aligned, Record, ReleaseSource};
-use hbis::inference::MapSettings;
+use hbis::inference::{MapSettings, Noise};
 use hbis::model::{ForwardModel, Model, Registry};
 use hbis::report::json::DataInfo;
 use serde::Serialize;
@@ -34,10 +34,22 @@ pub struct Args {
     /// Release time in the record's clock (s); default: detected.
     #[arg(long, allow_negative_numbers = true)]
     t0: Option<f64>,
+    /// Measurement-error model of every fit: `white` or `ar1`.
+    #[arg(long, default_value = "white")]
+    noise: String,
+}
+
+impl Args {
+    fn noise(&self) -> Result<Noise> {
+        Noise::parse(&self.noise)
+            .with_context(|| format!("--noise `{}`: expected `white` or `ar1`", self.noise))
+    }
 }
 
 fn load(a: &Args) -> Result<(Model, Aligned)> {
     let model = super::inputs::model(&a.model)?;
+    // Refused before any computation.
+    a.noise()?;
     let record =
         Record::read(&a.data).with_context(|| format!("in record {}", a.data.display()))?;
     let data = record
@@ -65,6 +77,7 @@ struct DiagnosisReport<'a> {
     hbis_version: &'a str,
     model: String,
     seed: u64,
+    noise: &'a str,
     data: DataInfo,
     e2: f64,
     bic: f64,
@@ -83,15 +96,22 @@ pub fn diagnose(a: Args) -> Result<()> {
         .clone()
         .unwrap_or_else(|| PathBuf::from("hbis-diagnose"));
     let settings = MapSettings::default();
-    let (fit, diagnosis, ranked) =
-        diagnose_model(&Registry::builtin(), &model, &data, &settings, a.seed)
-            .context("diagnosis")?;
+    let (fit, diagnosis, ranked) = diagnose_model(
+        &Registry::builtin(),
+        &model,
+        &data,
+        a.noise()?,
+        &settings,
+        a.seed,
+    )
+    .context("diagnosis")?;
     std::fs::create_dir_all(&out)
         .with_context(|| format!("cannot create folder {}", out.display()))?;
     let report = DiagnosisReport {
         hbis_version: env!("CARGO_PKG_VERSION"),
         model: model.name(),
         seed: a.seed,
+        noise: &a.noise,
         data: DataInfo::new(&a.data.display().to_string(), &data),
         e2: fit.e2,
         bic: fit.bic,
@@ -134,6 +154,7 @@ struct LadderReport<'a> {
     hbis_version: &'a str,
     model: String,
     seed: u64,
+    noise: &'static str,
     data: DataInfo,
     final_model: String,
     steps: Vec<LadderStep<'a>>,
@@ -159,7 +180,7 @@ pub fn run_ladder(a: Args) -> Result<()> {
         .clone()
         .unwrap_or_else(|| PathBuf::from("hbis-ladder"));
     let start = model.name();
-    let steps = ladder_steps(model, &data, a.seed)?;
+    let steps = ladder_steps(model, &data, a.noise()?, a.seed)?;
     let mut err = std::io::stderr().lock();
     print_ladder(&mut err, &steps)?;
     let text = write_ladder(
@@ -182,7 +203,7 @@ const MAX_LADDER_STEPS: usize = 6;
 
 /// Runs the ladder (at most [`MAX_LADDER_STEPS`] effects are added), with a
 /// line per step on standard error when it is a terminal.
-pub fn ladder_steps(model: Model, data: &Aligned, seed: u64) -> Result<Vec<Step>> {
+pub fn ladder_steps(model: Model, data: &Aligned, noise: Noise, seed: u64) -> Result<Vec<Step>> {
     let live = std::io::stderr().is_terminal();
     let mut report = |s: &Step| {
         if !live {
@@ -199,6 +220,7 @@ pub fn ladder_steps(model: Model, data: &Aligned, seed: u64) -> Result<Vec<Step>
         &registry,
         model,
         data,
+        noise,
         &MapSettings::default(),
         seed,
         MAX_LADDER_STEPS,
@@ -222,6 +244,7 @@ pub fn write_ladder(
         hbis_version: env!("CARGO_PKG_VERSION"),
         model: start.to_string(),
         seed,
+        noise: steps.first().map_or("white", |s| s.fit.noise.as_str()),
         data: DataInfo::new(
             source,
             &data
@@ -266,7 +289,7 @@ fn residual_figure(path: &Path, model: &Model, fit: &ModelFit, data: &Aligned) -
     #[cfg(feature = "figures")]
     {
         let mut accel = vec![0.0; data.a.len()];
-        data.model_accel_into(model, &fit.theta, &mut accel)?;
+        data.model_accel_into(model, fit.model_theta(model), &mut accel)?;
         let t: Vec<f64> = (0..accel.len()).map(|i| data.time(i)).collect();
         hbis::report::figures::fit_figure(
             path,

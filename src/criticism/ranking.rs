@@ -87,6 +87,15 @@ pub struct ModelFit {
     pub log_evidence: f64,
     /// Posterior evaluations spent.
     pub evaluations: u64,
+    /// The noise model of the fit (`theta` ends with its parameters).
+    pub noise: Noise,
+}
+
+impl ModelFit {
+    /// The model's part of the MAP (without the noise model's `rho`).
+    pub fn model_theta(&self, model: &Model) -> &[f64] {
+        Posterior::layout_for(model, self.noise).values(&self.theta, 0)
+    }
 }
 
 /// A ranked candidate.
@@ -176,9 +185,10 @@ pub fn caution(ranked: &[RankedCandidate]) -> Option<String> {
     caution_for(&pairs)
 }
 
-/// Uniform priors over the bounds the model's components declare.
-pub fn priors_for(model: &Model) -> Priors {
-    Posterior::default_priors(model, Noise::White)
+/// Uniform priors over the bounds the model's components declare (and
+/// `rho` for AR(1) noise).
+pub fn priors_for(model: &Model, noise: Noise) -> Priors {
+    Posterior::default_priors(model, noise)
 }
 
 /// `data` with a release detected between two samples placed by a fit of
@@ -198,7 +208,7 @@ pub fn place_release(
     let fit = fit_map(
         model.clone(),
         data,
-        priors_for(model),
+        priors_for(model, Noise::White),
         Noise::White,
         settings,
         None,
@@ -214,22 +224,28 @@ fn replace_release(
     data: &Aligned,
     theta: &[f64],
 ) -> Result<(Aligned, Vec<f64>), CriticismError> {
-    let post = Posterior::new(model.clone(), data.clone(), priors_for(model), Noise::White)?;
+    let post = Posterior::new(
+        model.clone(),
+        data.clone(),
+        priors_for(model, Noise::White),
+        Noise::White,
+    )?;
     let lagged = crate::inference::release::fit_lag(&post, theta).map_err(PipelineError::from)?;
     Ok((data.clone().placed(lagged.lag), lagged.theta))
 }
 
-/// Fits `model` to `data` (white noise, default priors) with the MAP stage
-/// `hbis fit` runs, warm-started from `start` if given; BIC and the Laplace
-/// evidence at the MAP.
+/// Fits `model` to `data` (default priors, `noise`) with the MAP stage
+/// `hbis fit` runs, warm-started from `start` (the model's parameters) if
+/// given; BIC and the Laplace evidence at the MAP.
 pub fn fit_model(
     model: &Model,
     data: &Aligned,
+    noise: Noise,
     start: Option<Vec<f64>>,
     settings: &MapSettings,
     seed: u64,
 ) -> Result<ModelFit, CriticismError> {
-    let (fit, cmp) = map_of(model, data, start, settings, seed)?;
+    let (fit, cmp) = map_of(model, data, noise, start, settings, seed)?;
     with_evidence(model, &fit, cmp, seed)
 }
 
@@ -237,6 +253,7 @@ pub fn fit_model(
 fn map_of(
     model: &Model,
     data: &Aligned,
+    noise: Noise,
     start: Option<Vec<f64>>,
     settings: &MapSettings,
     seed: u64,
@@ -245,8 +262,8 @@ fn map_of(
     let fit = fit_map(
         model.clone(),
         data.clone(),
-        priors_for(model),
-        Noise::White,
+        priors_for(model, noise),
+        noise,
         settings,
         start,
         &mut rng,
@@ -278,6 +295,7 @@ fn with_evidence(
         bic: cmp.bic,
         log_evidence,
         evaluations: map.evaluations(),
+        noise: fit.posterior.noise(),
     })
 }
 
@@ -304,13 +322,17 @@ fn multi_start(
     c: &Candidate,
     starts: Vec<Vec<f64>>,
     data: &Aligned,
+    noise: Noise,
     settings: &MapSettings,
     rng: &mut StdRng,
 ) -> Result<(ModelFit, usize, usize), CriticismError> {
     let mut fits = Vec::new();
     for s in starts {
         let seed: u64 = rng.random();
-        fits.push((map_of(&c.model, data, Some(s), settings, seed)?, seed));
+        fits.push((
+            map_of(&c.model, data, noise, Some(s), settings, seed)?,
+            seed,
+        ));
     }
     let n = fits.len();
     let best = fits
@@ -338,10 +360,12 @@ pub fn rank_candidates(
     settings: &MapSettings,
     seed: u64,
 ) -> Result<Ranking, CriticismError> {
-    let cands = registry.candidates(current, &fit.theta);
+    let noise = fit.noise;
+    let theta_now = fit.model_theta(current);
+    let cands = registry.candidates(current, theta_now);
     let mut model_now = vec![0.0; data.a.len()];
-    data.model_accel_into(current, &fit.theta, &mut model_now)?;
-    let nuisance = jacobian(current, &fit.theta, &model_now, data);
+    data.model_accel_into(current, theta_now, &mut model_now)?;
+    let nuisance = jacobian(current, theta_now, &model_now, data);
     let mut rng = StdRng::seed_from_u64(seed);
     // The numerical engine costs some 30 times the closed form: its refits
     // get a smaller budget (the warm start is already close).
@@ -359,7 +383,8 @@ pub fn rank_candidates(
             let refit = fit_model(
                 &numeric,
                 data,
-                Some(fit.theta.clone()),
+                noise,
+                Some(theta_now.to_vec()),
                 &numeric_budget,
                 rng.random(),
             )?;
@@ -392,7 +417,7 @@ pub fn rank_candidates(
             &[0.5]
         };
         let (refit, n_starts, agreeing) =
-            multi_start(&c, starts(&c, &new, spread), data, budget, &mut rng)?;
+            multi_start(&c, starts(&c, &new, spread), data, noise, budget, &mut rng)?;
         refits.push((c, score, refit, n_starts, agreeing));
     }
     // A candidate must not look supported because its refit found a better
@@ -470,16 +495,20 @@ fn improve_baseline(
     let post = Posterior::new(
         current.clone(),
         data.clone(),
-        priors_for(current),
-        Noise::White,
+        priors_for(current, base.noise),
+        base.noise,
     )?;
     let mut best: Option<(f64, Vec<f64>)> = None;
     let same_engine = |c: &Candidate| c.model.closed_form() == current.closed_form();
     for (c, _, refit, _, _) in refits.iter().filter(|r| same_engine(&r.0)) {
         let layout = c.model.layout();
-        let projected = current
+        // The current model's values from the refit, with its noise
+        // parameters (`rho` last, as the posterior lays them out).
+        let mut projected = current
             .layout()
             .theta_from(&|p| layout.get(&refit.theta, &p.name).unwrap_or(p.neutral));
+        let refit_noise = Posterior::layout_for(&c.model, refit.noise);
+        projected.extend_from_slice(refit_noise.values(&refit.theta, 1));
         let ln_l = post.evaluate(&projected)?.log_likelihood;
         if best.as_ref().is_none_or(|(b, _)| ln_l > *b) {
             best = Some((ln_l, projected));
@@ -488,7 +517,8 @@ fn improve_baseline(
     let here = post.evaluate(&base.theta)?.log_likelihood;
     if let Some((ln_l, start)) = best {
         if ln_l > here + 0.5 {
-            let refit = fit_model(current, data, Some(start), budget, seed)?;
+            let start = post.model_part(&start).to_vec();
+            let refit = fit_model(current, data, base.noise, Some(start), budget, seed)?;
             if refit.log_likelihood > base.log_likelihood {
                 *base = refit;
             }
@@ -620,8 +650,9 @@ pub fn diagnosis_of(
     data: &Aligned,
 ) -> Result<Diagnostics, CriticismError> {
     let mut accel = vec![0.0; data.a.len()];
-    data.model_accel_into(model, &fit.theta, &mut accel)?;
-    let base = model.core_params(&fit.theta).map_err(SimError::from)?;
+    let theta = fit.model_theta(model);
+    data.model_accel_into(model, theta, &mut accel)?;
+    let base = model.core_params(theta).map_err(SimError::from)?;
     Ok(diagnose(&model.spec(), &base, &data.a, &accel, data.dt)?)
 }
 
@@ -637,7 +668,8 @@ pub fn adopt(
     if c.extended.closed_form() {
         return Ok(c.fit.clone());
     }
-    let full = fit_model(&c.extended, data, Some(c.fit.theta.clone()), settings, seed)?;
+    let start = c.fit.model_theta(&c.extended).to_vec();
+    let full = fit_model(&c.extended, data, c.fit.noise, Some(start), settings, seed)?;
     Ok(if full.log_likelihood > c.fit.log_likelihood {
         full
     } else {
@@ -653,10 +685,11 @@ pub fn diagnose_model(
     registry: &Registry,
     model: &Model,
     data: &Aligned,
+    noise: Noise,
     settings: &MapSettings,
     seed: u64,
 ) -> Result<(ModelFit, Diagnostics, Vec<RankedCandidate>), CriticismError> {
-    let fit = fit_model(model, data, None, settings, seed)?;
+    let fit = fit_model(model, data, noise, None, settings, seed)?;
     let ranking = rank_candidates(registry, model, &fit, data, settings, seed.wrapping_add(1))?;
     let diagnosis = diagnosis_of(model, &ranking.current, data)?;
     Ok((ranking.current, diagnosis, ranking.candidates))
@@ -665,10 +698,12 @@ pub fn diagnose_model(
 /// From `start`: diagnose, add the best supported effect, refit, repeat
 /// until nothing is supported (or `max_steps` effects were added). Step 0
 /// is [`diagnose_model`] with the same seed.
+#[allow(clippy::too_many_arguments)]
 pub fn ladder(
     registry: &Registry,
     start: Model,
     data: &Aligned,
+    noise: Noise,
     settings: &MapSettings,
     seed: u64,
     max_steps: usize,
@@ -677,6 +712,7 @@ pub fn ladder(
         registry,
         start,
         data,
+        noise,
         settings,
         seed,
         max_steps,
@@ -691,6 +727,7 @@ pub fn ladder_observed(
     registry: &Registry,
     start: Model,
     data: &Aligned,
+    noise: Noise,
     settings: &MapSettings,
     seed: u64,
     max_steps: usize,
@@ -701,7 +738,7 @@ pub fn ladder_observed(
     let mut model = start;
     let mut data = data.clone();
     let (mut fit, mut diagnosis, mut cands) =
-        diagnose_model(registry, &model, &data, settings, seed)?;
+        diagnose_model(registry, &model, &data, noise, settings, seed)?;
     let mut added: Option<String> = None;
     let mut steps = Vec::new();
     for k in 0..=max_steps {
@@ -733,9 +770,9 @@ pub fn ladder_observed(
                 if data.lag_detected() {
                     // Placed by a model without this effect, the release
                     // may be off: the new model places it again.
-                    let (placed, theta) = replace_release(&model, &data, &fit.theta)?;
+                    let (placed, theta) = replace_release(&model, &data, fit.model_theta(&model))?;
                     data = placed;
-                    fit = fit_model(&model, &data, Some(theta), settings, rng.random())?;
+                    fit = fit_model(&model, &data, noise, Some(theta), settings, rng.random())?;
                 }
             }
             _ => break,
