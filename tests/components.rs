@@ -6,7 +6,7 @@
 
 mod common;
 
-use hbis::criticism::{adopt, diagnose_model, ladder};
+use hbis::criticism::{adopt, diagnose_model, diagnosis_of, fit_model, ladder};
 use hbis::data::{synthesize, Aligned};
 use hbis::inference::{MapSettings, Noise};
 use hbis::model::{ForwardModel, Model, Params, Registry, Response, SimOptions};
@@ -320,7 +320,8 @@ fn diagnose_and_the_ladders_first_step_agree() {
 
 /// Criticism under AR(1) noise: every fit carries `rho`, and on a record
 /// whose only departure from the start model is correlated noise, no
-/// component is supported.
+/// component is supported and the residual, whitened by the fitted noise
+/// model, is called white (under white noise it is not).
 #[test]
 fn criticism_fits_ar1_noise_and_finds_nothing_in_coloured_noise() {
     use rand_distr::{Distribution, Normal};
@@ -359,7 +360,7 @@ fn criticism_fits_ar1_noise_and_finds_nothing_in_coloured_noise() {
         .unwrap()
         .aligned(None)
         .unwrap();
-    let (fit, _, ranked) = diagnose_model(
+    let (fit, diagnosis, ranked) = diagnose_model(
         &registry,
         &model,
         &data,
@@ -368,6 +369,26 @@ fn criticism_fits_ar1_noise_and_finds_nothing_in_coloured_noise() {
         3,
     )
     .unwrap();
+    assert!(
+        diagnosis
+            .verdict
+            .contains("whitened by the fitted AR(1) noise")
+            && diagnosis.verdict.contains("consistent with white noise"),
+        "{}",
+        diagnosis.verdict
+    );
+    let white = fit_model(
+        &model,
+        &data,
+        Noise::White,
+        None,
+        &MapSettings::default(),
+        3,
+    )
+    .unwrap();
+    let d = diagnosis_of(&model, &white, &data).unwrap();
+    assert!(d.verdict.contains("is not white noise"), "{}", d.verdict);
+    assert!(d.lag1 > 0.5, "{}", d.lag1);
     assert_eq!(fit.names.last().map(String::as_str), Some("rho"));
     let rho_hat = *fit.theta.last().unwrap();
     assert!((rho_hat - rho).abs() < 0.05, "rho {rho_hat}");

@@ -653,7 +653,18 @@ pub fn diagnosis_of(
     let theta = fit.model_theta(model);
     data.model_accel_into(model, theta, &mut accel)?;
     let base = model.core_params(theta).map_err(SimError::from)?;
-    Ok(diagnose(&model.spec(), &base, &data.a, &accel, data.dt)?)
+    let rho = Posterior::layout_for(model, fit.noise)
+        .values(&fit.theta, 1)
+        .first()
+        .copied();
+    Ok(diagnose(
+        &model.spec(),
+        &base,
+        &data.a,
+        &accel,
+        data.dt,
+        rho,
+    )?)
 }
 
 /// The fit of a candidate's model as the ladder adopts it: the refit, or on

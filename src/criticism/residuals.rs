@@ -98,12 +98,19 @@ pub struct Diagnostics {
     pub half_cycles: Vec<HalfCycle>,
     /// At each reversal.
     pub jumps: Vec<Jump>,
-    /// Ljung-Box statistic over 20 lags.
+    /// Ljung-Box statistic over 20 lags (of the whitened residual when the
+    /// fit has AR(1) noise: `whitened_rho`).
     pub ljung_box_q: f64,
     /// Its p-value (small: the residual is not white).
     pub ljung_box_p: f64,
-    /// Lag-one autocorrelation of the residual.
+    /// Lag-one autocorrelation of the residual (whitened as the Ljung-Box
+    /// statistic is).
     pub lag1: f64,
+    /// Lag-one autocorrelation of the residual itself.
+    pub lag1_raw: f64,
+    /// The fitted AR(1) coefficient the residual was whitened with before
+    /// judging its whiteness (`e_i - rho e_(i-1)`); `None` for white noise.
+    pub whitened_rho: Option<f64>,
     /// Dominant residual frequency (Hz), as in `spectrum`.
     pub dominant_frequency_hz: f64,
     /// The spectrum.
@@ -129,6 +136,7 @@ pub fn diagnose(
     measured: &[f64],
     model: &[f64],
     dt: f64,
+    whiten: Option<f64>,
 ) -> Result<Diagnostics, SimError> {
     let n = measured.len().min(model.len());
     let r: Vec<f64> = (0..n).map(|i| measured[i] - model[i]).collect();
@@ -239,24 +247,31 @@ pub fn diagnose(
             })
         })
         .collect();
-    // Whiteness.
-    let h = 20usize.min(n / 4);
-    let c0: f64 = r.iter().map(|v| (v - mean).powi(2)).sum();
-    let rho = |k: usize| -> f64 {
-        (k..n)
-            .map(|i| (r[i] - mean) * (r[i - k] - mean))
-            .sum::<f64>()
-            / c0
+    // Whiteness, of the residual whitened by the fitted noise model: colour
+    // that the noise model explains is not a missing effect.
+    let lag1_raw = autocorrelation(&r, 1);
+    let w: Vec<f64> = match whiten {
+        Some(rho) => (0..n)
+            .map(|i| {
+                if i == 0 {
+                    (1.0 - rho * rho).max(0.0).sqrt() * r[0]
+                } else {
+                    r[i] - rho * r[i - 1]
+                }
+            })
+            .collect(),
+        None => r.clone(),
     };
+    let h = 20usize.min(n / 4);
     let q = n as f64
         * (n as f64 + 2.0)
         * (1..=h)
-            .map(|k| rho(k).powi(2) / (n - k) as f64)
+            .map(|k| autocorrelation(&w, k).powi(2) / (n - k) as f64)
             .sum::<f64>();
     let p = ChiSquared::new(h as f64)
         .map(|c| 1.0 - c.cdf(q))
         .unwrap_or(f64::NAN);
-    let lag1 = rho(1);
+    let lag1 = autocorrelation(&w, 1);
     // Spectrum (Hann window, periodogram).
     let size = n.next_power_of_two();
     let mut buf: Vec<rustfft::num_complex::Complex<f64>> = (0..size)
@@ -356,6 +371,8 @@ pub fn diagnose(
         ljung_box_q: q,
         ljung_box_p: p,
         lag1,
+        lag1_raw,
+        whitened_rho: whiten,
         dominant_frequency_hz: spectrum.dominant_frequency_hz,
         spectrum,
         map_u_edges: ue,
@@ -367,30 +384,48 @@ pub fn diagnose(
     Ok(d)
 }
 
+/// Lag-`k` autocorrelation of `x` about its mean.
+fn autocorrelation(x: &[f64], k: usize) -> f64 {
+    let n = x.len();
+    let mean = x.iter().sum::<f64>() / n as f64;
+    let c0: f64 = x.iter().map(|v| (v - mean).powi(2)).sum();
+    (k..n)
+        .map(|i| (x[i] - mean) * (x[i - k] - mean))
+        .sum::<f64>()
+        / c0
+}
+
 /// The verdict, in the user's terms.
 fn verdict(d: &Diagnostics, n: usize) -> String {
     let mut lines: Vec<String> = Vec::new();
     // An offset: the mean residual stands out from its standard error
     // (inflated for correlation, since correlated residuals average slower).
     let se = d.rms / (n as f64).sqrt()
-        * ((1.0 + d.lag1.max(0.0)) / (1.0 - d.lag1.clamp(0.0, 0.99))).sqrt();
+        * ((1.0 + d.lag1_raw.max(0.0)) / (1.0 - d.lag1_raw.clamp(0.0, 0.99))).sqrt();
     let offset = d.mean.abs() > 5.0 * se;
     let white = d.ljung_box_p > 0.01 && d.lag1.abs() < 0.2;
+    let whitened = match d.whitened_rho {
+        Some(rho) => format!(
+            ", whitened by the fitted AR(1) noise (rho = {rho:.2}; lag-one correlation {:.2} before),",
+            d.lag1_raw
+        ),
+        None => String::new(),
+    };
     if white && !offset {
         lines.push(format!(
-            "The residual (RMS {:.2e} m/s^2, e2 = {:.5}) is consistent with white noise (Ljung-Box p = {:.2}): the record shows no missing effect.",
+            "The residual (RMS {:.2e} m/s^2, e2 = {:.5}){whitened} is consistent with white noise (Ljung-Box p = {:.2}): the record shows no missing effect.",
             d.rms, d.e2, d.ljung_box_p
         ));
         return lines.join(" ");
     }
     if white {
         lines.push(format!(
-            "The residual (RMS {:.2e} m/s^2, e2 = {:.5}) fluctuates like white noise (Ljung-Box p = {:.2}) but not around zero.",
+            "The residual (RMS {:.2e} m/s^2, e2 = {:.5}){whitened} fluctuates like white noise (Ljung-Box p = {:.2}) but not around zero.",
             d.rms, d.e2, d.ljung_box_p
         ));
     } else {
         lines.push(format!(
-            "The residual (RMS {:.2e} m/s^2, e2 = {:.5}) is not white noise (Ljung-Box p = {:.1e}, lag-one correlation {:.2}): the model misses something.",
+            "The residual (RMS {:.2e} m/s^2, e2 = {:.5}){whitened} is not white noise (Ljung-Box p = {:.1e}, lag-one correlation {:.2}): the model misses something.",
             d.rms, d.e2, d.ljung_box_p, d.lag1
         ));
     }
