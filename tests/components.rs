@@ -6,7 +6,7 @@
 
 mod common;
 
-use hbis::criticism::{adopt, diagnose_model, diagnosis_of, fit_model, ladder};
+use hbis::criticism::{adopt, choose_noise, diagnose_model, diagnosis_of, fit_model, ladder};
 use hbis::data::{synthesize, Aligned};
 use hbis::inference::{MapSettings, Noise};
 use hbis::model::{ForwardModel, Model, Params, Registry, Response, SimOptions};
@@ -377,6 +377,12 @@ fn criticism_fits_ar1_noise_and_finds_nothing_in_coloured_noise() {
         "{}",
         diagnosis.verdict
     );
+    // `--noise auto` picks AR(1) here, white on a white-noise record.
+    let choice = choose_noise(&model, &data, &MapSettings::default(), 4).unwrap();
+    assert_eq!(choice.chosen, Noise::Ar1, "{}", choice.sentence());
+    let (white_record, _) = record(&model, &theta, 0.015, 6);
+    let choice = choose_noise(&model, &white_record, &MapSettings::default(), 4).unwrap();
+    assert_eq!(choice.chosen, Noise::White, "{}", choice.sentence());
     let white = fit_model(
         &model,
         &data,

@@ -6,7 +6,8 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
 use hbis::criticism::{
-    diagnose_model, ladder_observed, place_release, Diagnostics, ModelFit, RankedCandidate, Step,
+    choose_noise, diagnose_model, ladder_observed, place_release, Diagnostics, ModelFit,
+    NoiseChoice, RankedCandidate, Step,
 };
 use hbis::data::{Aligned, Record, ReleaseSource};
 use hbis::inference::{MapSettings, Noise};
@@ -34,22 +35,35 @@ pub struct Args {
     /// Release time in the record's clock (s); default: detected.
     #[arg(long, allow_negative_numbers = true)]
     t0: Option<f64>,
-    /// Measurement-error model of every fit: `white` or `ar1`.
+    /// Measurement-error model of every fit: `white`, `ar1`, or `auto`
+    /// (the lower BIC of the two at the start model).
     #[arg(long, default_value = "white")]
     noise: String,
 }
 
 impl Args {
-    fn noise(&self) -> Result<Noise> {
-        Noise::parse(&self.noise)
-            .with_context(|| format!("--noise `{}`: expected `white` or `ar1`", self.noise))
+    /// The noise model asked for; `None` for `auto`.
+    fn noise(&self) -> Result<Option<Noise>> {
+        if self.noise == "auto" {
+            return Ok(None);
+        }
+        Noise::parse(&self.noise).map(Some).with_context(|| {
+            format!(
+                "--noise `{}`: expected `white`, `ar1` or `auto`",
+                self.noise
+            )
+        })
     }
 }
 
-fn load(a: &Args) -> Result<(Model, Aligned)> {
+/// The start model, the record (release placed) and the noise model, with
+/// how `auto` chose it.
+type Loaded = (Model, Aligned, Noise, Option<NoiseChoice>);
+
+fn load(a: &Args) -> Result<Loaded> {
     let model = super::inputs::model(&a.model)?;
     // Refused before any computation.
-    a.noise()?;
+    let asked = a.noise()?;
     let record =
         Record::read(&a.data).with_context(|| format!("in record {}", a.data.display()))?;
     let data = record
@@ -68,7 +82,16 @@ fn load(a: &Args) -> Result<(Model, Aligned)> {
             1e3 * data.lag
         )?;
     }
-    Ok((model, data))
+    let (noise, choice) = match asked {
+        Some(n) => (n, None),
+        None => {
+            let c = choose_noise(&model, &data, &MapSettings::default(), a.seed ^ 0x0A17_0015)
+                .context("choosing the noise model")?;
+            writeln!(err, "{}", c.sentence())?;
+            (c.chosen, Some(c))
+        }
+    };
+    Ok((model, data, noise, choice))
 }
 
 /// `diagnosis.json`.
@@ -77,7 +100,9 @@ struct DiagnosisReport<'a> {
     hbis_version: &'a str,
     model: String,
     seed: u64,
-    noise: &'a str,
+    noise: &'static str,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    noise_choice: Option<NoiseChoice>,
     data: DataInfo,
     e2: f64,
     bic: f64,
@@ -90,7 +115,7 @@ struct DiagnosisReport<'a> {
 }
 
 pub fn diagnose(a: Args) -> Result<()> {
-    let (model, data) = load(&a)?;
+    let (model, data, noise, choice) = load(&a)?;
     let out = a
         .out
         .clone()
@@ -100,7 +125,7 @@ pub fn diagnose(a: Args) -> Result<()> {
         &Registry::builtin(),
         &model,
         &data,
-        a.noise()?,
+        noise,
         &settings,
         a.seed,
     )
@@ -111,7 +136,8 @@ pub fn diagnose(a: Args) -> Result<()> {
         hbis_version: env!("CARGO_PKG_VERSION"),
         model: model.name(),
         seed: a.seed,
-        noise: &a.noise,
+        noise: noise.as_str(),
+        noise_choice: choice,
         data: DataInfo::new(&a.data.display().to_string(), &data),
         e2: fit.e2,
         bic: fit.bic,
@@ -155,6 +181,8 @@ struct LadderReport<'a> {
     model: String,
     seed: u64,
     noise: &'static str,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    noise_choice: Option<NoiseChoice>,
     data: DataInfo,
     final_model: String,
     steps: Vec<LadderStep<'a>>,
@@ -174,13 +202,13 @@ struct LadderStep<'a> {
 }
 
 pub fn run_ladder(a: Args) -> Result<()> {
-    let (model, data) = load(&a)?;
+    let (model, data, noise, choice) = load(&a)?;
     let out = a
         .out
         .clone()
         .unwrap_or_else(|| PathBuf::from("hbis-ladder"));
     let start = model.name();
-    let steps = ladder_steps(model, &data, a.noise()?, a.seed)?;
+    let steps = ladder_steps(model, &data, noise, a.seed)?;
     let mut err = std::io::stderr().lock();
     print_ladder(&mut err, &steps)?;
     let text = write_ladder(
@@ -190,6 +218,7 @@ pub fn run_ladder(a: Args) -> Result<()> {
         &a.data.display().to_string(),
         &steps,
         &data,
+        choice,
     )?;
     writeln!(err, "wrote {}", out.join("ladder.json").display())?;
     if a.json {
@@ -237,6 +266,7 @@ pub fn write_ladder(
     source: &str,
     steps: &[Step],
     data: &Aligned,
+    noise_choice: Option<NoiseChoice>,
 ) -> Result<String> {
     std::fs::create_dir_all(out)
         .with_context(|| format!("cannot create folder {}", out.display()))?;
@@ -245,6 +275,7 @@ pub fn write_ladder(
         model: start.to_string(),
         seed,
         noise: steps.first().map_or("white", |s| s.fit.noise.as_str()),
+        noise_choice,
         data: DataInfo::new(
             source,
             &data

@@ -104,6 +104,7 @@ fn criticize(out: &mut impl Write, dir: &Path) -> Result<()> {
         &path.display().to_string(),
         &steps,
         &data,
+        None,
     )?;
     writeln!(
         out,

@@ -9,8 +9,8 @@ pub mod ranking;
 pub mod residuals;
 
 pub use ranking::{
-    adopt, caution, diagnose_model, diagnosis_of, fit_model, ladder, ladder_observed,
-    place_release, priors_for, rank_candidates, CriticismError, ModelFit, RankedCandidate, Ranking,
-    Step,
+    adopt, caution, choose_noise, diagnose_model, diagnosis_of, fit_model, ladder, ladder_observed,
+    place_release, priors_for, rank_candidates, CriticismError, ModelFit, NoiseChoice,
+    RankedCandidate, Ranking, Step,
 };
 pub use residuals::{diagnose, Diagnostics};

@@ -688,6 +688,70 @@ pub fn adopt(
     })
 }
 
+/// The noise model `--noise auto` picks for a criticism run: the start
+/// model fitted with white and with AR(1) noise, and the lower BIC.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct NoiseChoice {
+    /// The noise model chosen.
+    pub chosen: Noise,
+    /// BIC of the white-noise fit.
+    pub bic_white: f64,
+    /// BIC of the AR(1) fit (one parameter more).
+    pub bic_ar1: f64,
+    /// The AR(1) fit's lag-one coefficient.
+    pub rho: f64,
+}
+
+impl NoiseChoice {
+    /// One sentence with the numbers.
+    pub fn sentence(&self) -> String {
+        format!(
+            "noise model: {} by BIC at the start model (white {:.1}, AR(1) {:.1} with rho = {:.2})",
+            self.chosen.as_str(),
+            self.bic_white,
+            self.bic_ar1,
+            self.rho
+        )
+    }
+}
+
+/// Fits `model` with white and with AR(1) noise and picks the lower BIC.
+/// The models nest (AR(1) with `rho = 0` is white noise), so each fit
+/// starts from the other's MAP too: a search stuck in a worse basin must
+/// not decide the noise model.
+pub fn choose_noise(
+    model: &Model,
+    data: &Aligned,
+    settings: &MapSettings,
+    seed: u64,
+) -> Result<NoiseChoice, CriticismError> {
+    let (white_fit, white) = map_of(model, data, Noise::White, None, settings, seed)?;
+    let white_theta = white_fit
+        .posterior
+        .model_part(&white_fit.map.theta)
+        .to_vec();
+    let (ar1_fit, ar1) = map_of(model, data, Noise::Ar1, Some(white_theta), settings, seed)?;
+    let ar1_theta = ar1_fit.posterior.model_part(&ar1_fit.map.theta).to_vec();
+    let (_, again) = map_of(model, data, Noise::White, Some(ar1_theta), settings, seed)?;
+    let bic_white = white.bic.min(again.bic);
+    let rho = ar1_fit
+        .posterior
+        .noise_part(&ar1_fit.map.theta)
+        .first()
+        .copied()
+        .unwrap_or(0.0);
+    Ok(NoiseChoice {
+        chosen: if ar1.bic < bic_white {
+            Noise::Ar1
+        } else {
+            Noise::White
+        },
+        bic_white,
+        bic_ar1: ar1.bic,
+        rho,
+    })
+}
+
 /// What `hbis diagnose` computes, and the ladder's first step: the fit of
 /// `model` (seed `seed`), its residual diagnosis, and every candidate
 /// screened, refitted and ranked (seed `seed + 1`). The same inputs give
