@@ -82,3 +82,70 @@ fn fit_samples_a_model_with_velocity_friction_and_an_offset() {
         assert!(lo <= t && t <= hi, "{name}: {t} outside [{lo}, {hi}]");
     }
 }
+
+/// A model the registry refuses is bad input: exit code 2 and a message
+/// that names the problem, before any computation.
+#[test]
+fn bad_models_and_noise_are_refused_with_their_reason() {
+    let dir = tempfile::tempdir().unwrap();
+    let model = Model::parse("trilinear+lcfm+viscous").unwrap();
+    let truth = model
+        .theta_from_params(&Params::table_8_1(5).unwrap(), &[])
+        .unwrap();
+    let mut rng = StdRng::seed_from_u64(2);
+    let syn = synthesize(&model, &truth, 0.005, 401, 0.015, &mut rng).unwrap();
+    std::fs::write(dir.path().join("rec.csv"), syn.record.to_csv()).unwrap();
+    for (cmd, spec, noise, expected) in [
+        (
+            "fit",
+            "trilinear+offset+offset",
+            "white",
+            "names `offset` twice",
+        ),
+        (
+            "fit",
+            "trilinear+lcfm+coulomb",
+            "white",
+            "names a friction law twice",
+        ),
+        (
+            "fit",
+            "bilinear+velocity-friction",
+            "white",
+            "needs a friction law",
+        ),
+        ("fit", "trilinear+magic", "white", "registered: linear"),
+        (
+            "diagnose",
+            "trilinear+friction-decay",
+            "white",
+            "needs a friction law",
+        ),
+        (
+            "diagnose",
+            "trilinear+lcfm",
+            "pink",
+            "expected `white`, `ar1` or `auto`",
+        ),
+        (
+            "ladder",
+            "trilinear+lcfm",
+            "red",
+            "expected `white`, `ar1` or `auto`",
+        ),
+    ] {
+        let o = hbis(
+            dir.path(),
+            &[
+                cmd, "--data", "rec.csv", "--model", spec, "--noise", noise, "--out", "o",
+            ],
+        );
+        assert_eq!(o.status.code(), Some(2), "{cmd} {spec}: {}", stderr(&o));
+        assert!(
+            stderr(&o).contains(expected),
+            "{cmd} {spec}: {}",
+            stderr(&o)
+        );
+        assert!(!dir.path().join("o").exists(), "{cmd} {spec} wrote output");
+    }
+}

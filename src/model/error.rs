@@ -53,7 +53,7 @@ pub enum ParamError {
 pub enum SpecError {
     #[error("unknown model component `{name}` (registered: {known})")]
     Unknown { name: String, known: String },
-    #[error("model spec `{spec}` names a {kind} twice")]
+    #[error("model spec `{spec}` names {kind} twice")]
     Duplicate { spec: String, kind: String },
     #[error("model spec `{0}` names no spring (linear, bilinear or trilinear)")]
     NoSpring(String),

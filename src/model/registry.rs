@@ -177,29 +177,29 @@ impl Registry {
                 Component::Force(f) => match f.core() {
                     Some(Core::Spring(k)) => {
                         if spring.replace(k).is_some() {
-                            return Err(dup("spring"));
+                            return Err(dup("a spring"));
                         }
                     }
                     Some(Core::Friction(k)) => {
                         if friction.replace(k).is_some() {
-                            return Err(dup("friction"));
+                            return Err(dup("a friction law"));
                         }
                     }
                     Some(Core::Damper(k)) => {
                         if damper.replace(k).is_some() {
-                            return Err(dup("damper"));
+                            return Err(dup("a damper"));
                         }
                     }
                     None => {
                         if forces.iter().any(|g| g.name() == part) {
-                            return Err(dup(part));
+                            return Err(dup(&format!("`{part}`")));
                         }
                         forces.push(f.clone());
                     }
                 },
                 Component::Output(o) => {
                     if outputs.iter().any(|g| g.name() == part) {
-                        return Err(dup(part));
+                        return Err(dup(&format!("`{part}`")));
                     }
                     outputs.push(o.clone());
                 }

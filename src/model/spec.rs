@@ -241,7 +241,7 @@ impl FromStr for ModelSpec {
                         _ => SpringKind::Trilinear,
                     };
                     if spring.replace(k).is_some() {
-                        return Err(dup("spring"));
+                        return Err(dup("a spring"));
                     }
                 }
                 "coulomb" | "lcfm" => {
@@ -251,12 +251,12 @@ impl FromStr for ModelSpec {
                         FrictionKind::Lcfm
                     };
                     if friction.replace(k).is_some() {
-                        return Err(dup("friction"));
+                        return Err(dup("a friction law"));
                     }
                 }
                 "viscous" => {
                     if damper.replace(DamperKind::Viscous).is_some() {
-                        return Err(dup("damper"));
+                        return Err(dup("a damper"));
                     }
                 }
                 // "none" may stand for a missing friction or damper.
