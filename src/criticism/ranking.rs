@@ -392,9 +392,9 @@ pub fn rank_candidates(
         } else {
             None
         };
+    let old = current.param_names();
     let mut refits = Vec::new();
     for c in cands {
-        let old = current.param_names();
         let new: Vec<usize> = c
             .model
             .param_names()
