@@ -76,8 +76,8 @@ pub struct FitOptions {
     pub forces: Option<(f64, f64)>,
     /// Text that identifies the record in the checkpoint's fingerprint.
     pub label: String,
-    /// Also compute the Laplace log-evidence at the MAP (a short ensemble
-    /// run).
+    /// Also compute the Laplace log-evidence at the MAP (covariance from a
+    /// finite-difference Hessian).
     pub evidence: bool,
 }
 
@@ -155,12 +155,7 @@ pub fn fit_record(
     let spec = model.spec();
     let comparison = compare(&posterior, &map.theta)?;
     let log_evidence = if options.evidence {
-        Some(laplace_evidence(
-            &posterior,
-            &map.theta,
-            map.eval.log_posterior,
-            options.seed ^ 0x1A91_ACE0,
-        )?)
+        Some(laplace_evidence(&posterior, &map.theta, map.eval.log_posterior)?.log_evidence)
     } else {
         None
     };

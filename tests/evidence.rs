@@ -70,10 +70,11 @@ fn laplace_evidence_agrees_with_tmcmc() {
     );
     // TMCMC's own error is of order its run-to-run spread; Laplace adds the
     // error of a Gaussian approximation to a posterior that is only
-    // piecewise smooth. Agreement within 3 nats is what model ranking needs
-    // (the effects the ladder adds change ln Z by hundreds).
+    // piecewise smooth (measured: 0.95 nat). Agreement within a nat is what
+    // model ranking needs (the effects the ladder adds change ln Z by
+    // hundreds); a Hessian through the MAP's own value is 6 nats low here.
     assert!(
-        (fit.log_evidence - mean).abs() < 3.0 + 2.0 * spread,
+        (fit.log_evidence - mean).abs() < 1.0 + 2.0 * spread,
         "Laplace {} vs TMCMC {mean}",
         fit.log_evidence
     );

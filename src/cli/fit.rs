@@ -68,7 +68,7 @@ pub struct Args {
     #[arg(long, requires = "released_force")]
     static_friction: Option<f64>,
     /// Also compute the Laplace log-evidence at the MAP (`log_evidence` in
-    /// fit.json; a short ensemble run).
+    /// fit.json; covariance from a finite-difference Hessian).
     #[arg(long)]
     evidence: bool,
 }

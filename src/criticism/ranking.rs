@@ -246,7 +246,7 @@ pub fn fit_model(
     seed: u64,
 ) -> Result<ModelFit, CriticismError> {
     let (fit, cmp) = map_of(model, data, noise, start, settings, seed)?;
-    with_evidence(model, &fit, cmp, seed)
+    with_evidence(model, &fit, cmp)
 }
 
 /// The MAP stage alone (no evidence), with its comparison numbers.
@@ -277,15 +277,10 @@ fn with_evidence(
     model: &Model,
     fit: &MapFit<Model>,
     cmp: Comparison,
-    seed: u64,
 ) -> Result<ModelFit, CriticismError> {
     let map = &fit.map;
-    let log_evidence = laplace_evidence(
-        &fit.posterior,
-        &map.theta,
-        map.eval.log_posterior,
-        seed ^ 0x1A91_ACE0,
-    )?;
+    let laplace = laplace_evidence(&fit.posterior, &map.theta, map.eval.log_posterior)?;
+    let log_evidence = laplace.log_evidence;
     Ok(ModelFit {
         model: model.name(),
         names: map.names.clone(),
@@ -328,26 +323,29 @@ fn multi_start(
 ) -> Result<(ModelFit, usize, usize), CriticismError> {
     let mut fits = Vec::new();
     for s in starts {
-        let seed: u64 = rng.random();
-        fits.push((
-            map_of(&c.model, data, noise, Some(s), settings, seed)?,
-            seed,
-        ));
+        fits.push(map_of(
+            &c.model,
+            data,
+            noise,
+            Some(s),
+            settings,
+            rng.random(),
+        )?);
     }
     let n = fits.len();
     let best = fits
         .iter()
-        .map(|((_, cmp), _)| cmp.log_likelihood)
+        .map(|(_, cmp)| cmp.log_likelihood)
         .fold(f64::NEG_INFINITY, f64::max);
     let agreeing = fits
         .iter()
-        .filter(|((_, cmp), _)| cmp.log_likelihood > best - 1.0)
+        .filter(|(_, cmp)| cmp.log_likelihood > best - 1.0)
         .count();
-    let ((fit, cmp), seed) = fits
+    let (fit, cmp) = fits
         .into_iter()
-        .max_by(|a, b| a.0 .1.log_likelihood.total_cmp(&b.0 .1.log_likelihood))
+        .max_by(|a, b| a.1.log_likelihood.total_cmp(&b.1.log_likelihood))
         .expect("at least the warm start");
-    Ok((with_evidence(&c.model, &fit, cmp, seed)?, n, agreeing))
+    Ok((with_evidence(&c.model, &fit, cmp)?, n, agreeing))
 }
 
 /// Screens, refits and ranks every registered component absent from

@@ -7,6 +7,7 @@ pub mod cmaes;
 pub mod diagnostics;
 pub mod ensemble;
 pub mod identifiability;
+pub mod laplace;
 pub mod likelihood;
 pub mod map;
 pub mod pipeline;

@@ -11,8 +11,8 @@
 //! ```
 //! with `p(D|theta)` the marginal likelihood of `docs/inference.md` and
 //! `Sigma` the posterior covariance at the MAP (Laplace's approximation;
-//! Beck & Yuen 2004), estimated by a short ensemble run (see
-//! [`laplace_evidence`]). The evidence shares the constant of Jeffreys'
+//! Beck & Yuen 2004), from a finite-difference Hessian of the log-posterior
+//! (see [`laplace_evidence`]). The evidence shares the constant of Jeffreys'
 //! improper prior on `sigma` across models of one record, so only
 //! differences mean anything.
 //!
@@ -29,10 +29,9 @@ use serde::Serialize;
 use thiserror::Error;
 
 use super::ensemble::SamplerError;
+use super::laplace::{axis_scales, covariance_from, hessian, log_evidence, Laplace, STEP};
 use super::likelihood::{ar1_sum, sum_of_squares};
 use super::release::{fit_lag, LagError};
-use super::sample::{conditional_scales, sample_posterior, SampleError, SampleSettings};
-use super::summary::covariance;
 use super::{
     find_map, MapError, MapEstimate, MapSettings, Noise, Posterior, PosteriorError, Priors,
 };
@@ -57,9 +56,6 @@ pub enum PipelineError {
     /// The sampler's density (while computing scales).
     #[error("conditional scales")]
     Scales(#[from] SamplerError),
-    /// The short posterior run of the Laplace approximation.
-    #[error("posterior covariance")]
-    Sample(#[from] SampleError),
 }
 
 /// A MAP fit: the posterior (with the record as placed) and its MAP.
@@ -181,48 +177,28 @@ pub fn compare<M: ForwardModel>(
 }
 
 /// Laplace's approximation of the log-evidence at the MAP `theta`
-/// (log-posterior `lp`), with the posterior covariance estimated by a short
-/// ensemble run from the MAP (2 ensembles of `2 (d + 1)` walkers, 400 steps,
-/// the second half kept).
-///
-/// A finite-difference Hessian is not used: the likelihood is only piecewise
-/// smooth (reversals cross sample instants as parameters change), and
-/// curvature measured over a conditional sd mixes in those small jumps; on a
-/// 6-parameter test it put ln Z 14 nats below the sampled-covariance value,
-/// which agrees with transitional MCMC (`tests/evidence.rs`).
+/// (log-posterior `lp`), with the covariance from a finite-difference
+/// Hessian of the log-posterior ([`super::laplace`]): deterministic, so the
+/// same MAP gives the same evidence whatever the seed.
 pub fn laplace_evidence<M: ForwardModel + Clone>(
     post: &Posterior<M>,
     theta: &[f64],
     lp: f64,
-    seed: u64,
-) -> Result<f64, PipelineError> {
-    let d = theta.len();
+) -> Result<Laplace, PipelineError> {
     let (lo, hi) = post.priors().box_bounds();
     let range: Vec<f64> = lo.iter().zip(&hi).map(|(l, h)| h - l).collect();
-    let h = conditional_scales(post, theta, &range)?;
-    let walkers = 2 * (d + 1);
-    let settings = SampleSettings::default()
-        .with_ensembles(2)
-        .and_then(|s| s.with_walkers(walkers.max(4)))
-        .and_then(|s| s.with_max_steps(400))
-        .and_then(|s| s.with_tau_multiple(1e9))
-        .expect("valid settings");
-    let sample = sample_posterior(
-        post,
-        post.names(),
-        theta,
-        &h,
-        &settings,
-        seed,
-        None,
-        "",
-        &mut |_| {},
-    )?;
-    let cov = covariance(&sample.draws());
-    let m = nalgebra::DMatrix::from_fn(d, d, |i, j| cov[i][j]);
-    let half_log_det = match m.cholesky() {
-        Some(c) => c.l().diagonal().iter().map(|v| v.ln()).sum::<f64>(),
-        None => h.iter().map(|v| v.ln()).sum::<f64>(),
-    };
-    Ok(lp + 0.5 * d as f64 * (2.0 * std::f64::consts::PI).ln() + half_log_det)
+    let f = |x: &[f64]| post.log_posterior(x);
+    let h: Vec<f64> = axis_scales(&f, theta, &range, 0.5)?
+        .iter()
+        .zip(&range)
+        .map(|(s, r)| (STEP * s).min(0.25 * r))
+        .collect();
+    let hess = hessian(&f, theta, &h, &lo, &hi)?;
+    let (covariance, method) = covariance_from(&hess, &h);
+    let laplace = log_evidence(lp, &covariance, &h);
+    Ok(Laplace {
+        log_evidence: laplace,
+        covariance,
+        method,
+    })
 }
