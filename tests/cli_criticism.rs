@@ -169,3 +169,57 @@ fn bad_models_and_records_exit_2() {
     assert_eq!(o.status.code(), Some(2));
     assert!(stderr(&o).contains("row 3, column `a`"), "{}", stderr(&o));
 }
+
+/// A velocity-dependent friction record with coloured, filtered and
+/// quantised sensor noise (the kind of record on which `diagnose` and the
+/// ladder's first step once disagreed): `hbis diagnose` and `hbis ladder
+/// --max-steps 0`, same seed, report identical numbers, noise choice and
+/// conclusion.
+#[test]
+fn diagnose_and_the_ladder_agree_on_a_coloured_record() {
+    use hbis::criticism::calibration::sensor_noise;
+    use hbis::model::{ForwardModel, Model};
+    let d = tempfile::tempdir().unwrap();
+    let model = Model::parse("trilinear+lcfm+viscous+velocity-friction").unwrap();
+    let theta = model
+        .theta_from_params(
+            &Params::table_8_1(5).unwrap(),
+            &[("r_mu", 0.4), ("v_t", 0.03)],
+        )
+        .unwrap();
+    let mut clean = vec![0.0; 2001];
+    model.accel_into(&theta, 0.005, &mut clean).unwrap();
+    let a = sensor_noise(&clean, 0.005, &mut StdRng::seed_from_u64(12));
+    let mut text = String::from("t,a\n");
+    for (i, v) in a.iter().enumerate() {
+        text.push_str(&format!("{},{v}\n", i as f64 * 0.005));
+    }
+    std::fs::write(d.path().join("rec.csv"), text).unwrap();
+    let common = [
+        "--data",
+        "rec.csv",
+        "--model",
+        "trilinear+lcfm+viscous",
+        "--noise",
+        "auto",
+        "--seed",
+        "3",
+        "--json",
+    ];
+    let run = |cmd: &[&str]| -> serde_json::Value {
+        let args: Vec<&str> = cmd.iter().chain(&common).copied().collect();
+        let o = hbis(d.path(), &args);
+        assert!(o.status.success(), "{}", stderr(&o));
+        serde_json::from_slice(&o.stdout).unwrap()
+    };
+    let diag = run(&["diagnose", "--out", "dx"]);
+    let lad = run(&["ladder", "--out", "lx", "--max-steps", "0"]);
+    let step = &lad["steps"][0];
+    assert_eq!(lad["steps"].as_array().unwrap().len(), 1);
+    assert_eq!(diag["noise_choice"], lad["noise_choice"]);
+    assert_eq!(diag["noise"], lad["noise"]);
+    for k in ["e2", "bic", "log_evidence", "candidates", "conclusion"] {
+        assert_eq!(diag[k], step[k], "`{k}` differs");
+    }
+    assert!(!diag["candidates"].as_array().unwrap().is_empty());
+}

@@ -205,3 +205,63 @@ fn an_unmodelled_superstructure_mode_is_named_with_its_frequency() {
         d.verdict
     );
 }
+
+/// A rubber stiffness that falls by a quarter over the test (the catalog's
+/// `degradation`, withheld from the candidates): the ladder from the
+/// model without it adds no catalog effect the truth lacks, and its
+/// conclusion says that no catalog effect explains the residual and
+/// reports the period drift with its numbers. Without the false-discovery
+/// gate `velocity-friction` was added here (BIC -59.6), absorbing the
+/// drift.
+#[test]
+fn a_degrading_stiffness_outside_the_catalog_is_reported_not_absorbed() {
+    let truth_model = Model::parse("trilinear+lcfm+viscous+degradation").unwrap();
+    // kappa_k = 0.55 1/m: 1 / (1 + 0.55 s) is 0.75 after the record's
+    // 0.6 m of travel.
+    let truth = truth_model
+        .theta_from_params(&Params::table_8_1(3).unwrap(), &[("kappa_k", 0.55)])
+        .unwrap();
+    let mut rng = StdRng::seed_from_u64(7);
+    let data = synthesize(&truth_model, &truth, 0.005, 2001, 0.015, &mut rng)
+        .unwrap()
+        .record
+        .aligned(None)
+        .unwrap();
+    let registry = Registry::builtin().withholding("degradation");
+    let start = Model::parse("trilinear+lcfm+viscous").unwrap();
+    let steps = ladder(
+        &registry,
+        start,
+        &data,
+        Noise::White,
+        &MapSettings::default(),
+        1,
+        3,
+    )
+    .unwrap();
+    let last = steps.last().unwrap();
+    assert_eq!(steps.len(), 1, "added {:?}", last.added);
+    assert!(
+        last.conclusion
+            .starts_with("No catalog effect explains the residual's remaining structure")
+            && last.conclusion.contains("period-drift"),
+        "{}",
+        last.conclusion
+    );
+    let drift = last
+        .diagnosis
+        .features
+        .iter()
+        .find(|f| f.kind == hbis::criticism::features::FeatureKind::PeriodDrift)
+        .unwrap();
+    assert!(drift.significant, "{drift:?}");
+    assert!(
+        last.diagnosis.verdict.contains("period error drifts")
+            && last.diagnosis.verdict.contains("softens"),
+        "{}",
+        last.diagnosis.verdict
+    );
+    // The best candidate was supported by BIC and refused by the gate.
+    let best = &last.candidates[0];
+    assert!(best.supported && !best.accepted, "{best:?}");
+}

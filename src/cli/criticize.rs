@@ -41,6 +41,17 @@ pub struct Args {
     noise: String,
 }
 
+/// `hbis ladder`'s arguments: those of `hbis diagnose` and a step limit.
+#[derive(Debug, clap::Args)]
+pub struct LadderArgs {
+    #[command(flatten)]
+    common: Args,
+    /// Most effects the ladder adds (0: only the start model's diagnosis,
+    /// as `hbis diagnose` computes it).
+    #[arg(long, default_value_t = MAX_LADDER_STEPS)]
+    max_steps: usize,
+}
+
 impl Args {
     /// The noise model asked for; `None` for `auto`.
     fn noise(&self) -> Result<Option<Noise>> {
@@ -110,6 +121,7 @@ struct DiagnosisReport<'a> {
     map: std::collections::BTreeMap<String, f64>,
     candidates: &'a [RankedCandidate],
     caution: Option<String>,
+    conclusion: String,
     residual: &'a Diagnostics,
     verdict: &'a str,
 }
@@ -150,6 +162,7 @@ pub fn diagnose(a: Args) -> Result<()> {
             .collect(),
         candidates: &ranked,
         caution: hbis::criticism::caution(&ranked),
+        conclusion: hbis::criticism::conclusion(&diagnosis, &ranked),
         residual: &diagnosis,
         verdict: &diagnosis.verdict,
     };
@@ -199,16 +212,18 @@ struct LadderStep<'a> {
     verdict: &'a str,
     candidates: &'a [RankedCandidate],
     caution: Option<&'a str>,
+    conclusion: &'a str,
 }
 
-pub fn run_ladder(a: Args) -> Result<()> {
+pub fn run_ladder(l: LadderArgs) -> Result<()> {
+    let a = l.common;
     let (model, data, noise, choice) = load(&a)?;
     let out = a
         .out
         .clone()
         .unwrap_or_else(|| PathBuf::from("hbis-ladder"));
     let start = model.name();
-    let steps = ladder_steps(model, &data, noise, a.seed)?;
+    let steps = ladder_steps(model, &data, noise, a.seed, l.max_steps)?;
     let mut err = std::io::stderr().lock();
     print_ladder(&mut err, &steps)?;
     let text = write_ladder(
@@ -227,20 +242,26 @@ pub fn run_ladder(a: Args) -> Result<()> {
     Ok(())
 }
 
-/// Most effects the ladder adds.
-const MAX_LADDER_STEPS: usize = 6;
+/// Most effects the ladder adds by default.
+pub const MAX_LADDER_STEPS: usize = 6;
 
-/// Runs the ladder (at most [`MAX_LADDER_STEPS`] effects are added), with a
-/// line per step on standard error when it is a terminal.
-pub fn ladder_steps(model: Model, data: &Aligned, noise: Noise, seed: u64) -> Result<Vec<Step>> {
+/// Runs the ladder (at most `max_steps` effects are added), with a line per
+/// step on standard error when it is a terminal.
+pub fn ladder_steps(
+    model: Model,
+    data: &Aligned,
+    noise: Noise,
+    seed: u64,
+    max_steps: usize,
+) -> Result<Vec<Step>> {
     let live = std::io::stderr().is_terminal();
     let mut report = |s: &Step| {
         if !live {
             return;
         }
-        let next = match s.candidates.first() {
-            Some(c) if c.supported => format!("adding {}", c.effect),
-            _ => "no effect supported".to_string(),
+        let next = match s.candidates.iter().find(|c| c.accepted) {
+            Some(c) => format!("adding {}", c.effect),
+            None => "no effect added".to_string(),
         };
         eprintln!("  fitted {}: e2 = {:.5}; {next}", s.model, s.e2);
     };
@@ -252,7 +273,7 @@ pub fn ladder_steps(model: Model, data: &Aligned, noise: Noise, seed: u64) -> Re
         noise,
         &MapSettings::default(),
         seed,
-        MAX_LADDER_STEPS,
+        max_steps,
         &mut report,
     )
     .context("ladder")
@@ -295,6 +316,7 @@ pub fn write_ladder(
                 verdict: &s.diagnosis.verdict,
                 candidates: &s.candidates,
                 caution: s.caution.as_deref(),
+                conclusion: &s.conclusion,
             })
             .collect(),
     };
@@ -369,8 +391,10 @@ pub fn print_diagnosis(
             c.delta_log_likelihood,
             c.delta_log_evidence,
             c.score,
-            if c.supported {
-                "supported"
+            if c.accepted {
+                "accepted"
+            } else if c.supported {
+                "supported, not accepted"
             } else {
                 "unsupported"
             }
@@ -379,6 +403,11 @@ pub fn print_diagnosis(
     if let Some(c) = hbis::criticism::caution(ranked) {
         writeln!(out, "  caution: {c}")?;
     }
+    writeln!(
+        out,
+        "  conclusion: {}",
+        hbis::criticism::conclusion(d, ranked)
+    )?;
     Ok(())
 }
 
@@ -406,6 +435,7 @@ pub fn print_ladder(out: &mut impl Write, steps: &[Step]) -> Result<()> {
     }
     if let Some(last) = steps.last() {
         writeln!(out, "final verdict: {}", last.diagnosis.verdict)?;
+        writeln!(out, "conclusion: {}", last.conclusion)?;
     }
     Ok(())
 }

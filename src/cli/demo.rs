@@ -94,7 +94,13 @@ fn criticize(out: &mut impl Write, dir: &Path) -> Result<()> {
     )?;
     let data = syn.record.aligned(None)?;
     let start = hbis::model::Model::parse("bilinear+coulomb")?;
-    let steps = super::criticize::ladder_steps(start, &data, Noise::White, SEED)?;
+    let steps = super::criticize::ladder_steps(
+        start,
+        &data,
+        Noise::White,
+        SEED,
+        super::criticize::MAX_LADDER_STEPS,
+    )?;
     super::criticize::print_ladder(out, &steps)?;
     let ladder_dir = dir.join("ladder");
     super::criticize::write_ladder(

@@ -31,8 +31,8 @@ enum Command {
     Fit(fit::Args),
     /// Where a fitted model fails and which catalog effect is missing.
     Diagnose(criticize::Args),
-    /// Add the best supported effect, refit, repeat until none is supported.
-    Ladder(criticize::Args),
+    /// Add the best accepted effect, refit, repeat until none is accepted.
+    Ladder(criticize::LadderArgs),
     /// Run the built-in demonstration on the Solarino Test 5 parameters.
     Demo(demo::Args),
 }

@@ -5,12 +5,14 @@
 //! (the built-in catalog, [`crate::model::catalog`], plus any a user
 //! registers).
 
+pub mod calibration;
+pub mod features;
 pub mod ranking;
 pub mod residuals;
 
 pub use ranking::{
-    adopt, caution, choose_noise, diagnose_model, diagnosis_of, fit_model, ladder, ladder_observed,
-    place_release, priors_for, rank_candidates, CriticismError, ModelFit, NoiseChoice,
-    RankedCandidate, Ranking, Step,
+    adopt, caution, choose_noise, conclusion, diagnose_model, diagnosis_of, fit_model, ladder,
+    ladder_observed, place_release, priors_for, rank_candidates, CriticismError, ModelFit,
+    NoiseChoice, RankedCandidate, Ranking, Step,
 };
 pub use residuals::{diagnose, Diagnostics};

@@ -41,6 +41,7 @@ use rand::{RngExt, SeedableRng};
 use serde::Serialize;
 use thiserror::Error;
 
+use super::features::{Feature, FeatureKind};
 use super::residuals::{diagnose, Diagnostics};
 use crate::data::Aligned;
 use crate::inference::pipeline::{
@@ -85,6 +86,9 @@ pub struct ModelFit {
     /// Log-evidence by Laplace's approximation (up to a constant shared by
     /// all models of one record).
     pub log_evidence: f64,
+    /// Posterior standard deviations at the MAP (Laplace covariance), one
+    /// per coordinate of `theta`.
+    pub sd: Vec<f64>,
     /// Posterior evaluations spent.
     pub evaluations: u64,
     /// The noise model of the fit (`theta` ends with its parameters).
@@ -109,12 +113,21 @@ pub struct RankedCandidate {
     pub score: f64,
     /// `e2` after the refit.
     pub e2: f64,
-    /// Change of the maximised log-likelihood.
+    /// Change of the maximised log-likelihood (as the likelihood says).
     pub delta_log_likelihood: f64,
-    /// Change of BIC (negative: better).
+    /// The refit residual's dispersion ([`Diagnostics::dispersion`]): the
+    /// likelihood differences below are divided by it.
+    pub dispersion: f64,
+    /// Change of BIC (negative: better), the log-likelihood change divided
+    /// by `dispersion`.
     pub delta_bic: f64,
-    /// Change of the Laplace log-evidence.
+    /// Change of BIC as the likelihood says.
+    pub delta_bic_raw: f64,
+    /// Change of the Laplace log-evidence, its log-likelihood part divided
+    /// by `dispersion`.
     pub delta_log_evidence: f64,
+    /// Change of the Laplace log-evidence as the likelihood says.
+    pub delta_log_evidence_raw: f64,
     /// Whether it pays for its parameters (BIC lower by more than 10).
     pub supported: bool,
     /// The residual pattern it explains.
@@ -124,6 +137,29 @@ pub struct RankedCandidate {
     /// How many of them reached the best refit (within one unit of
     /// log-likelihood).
     pub agreeing: usize,
+    /// The residual structure it targets (empty: serial correlation).
+    pub targets: Vec<FeatureKind>,
+    /// Whether the evidence supports it (log Bayes factor above
+    /// [`EVIDENCE`]).
+    pub evidence_supports: bool,
+    /// How far its own parameters are from their neutral values: the
+    /// profile-likelihood ratio against the refitted current model as a
+    /// normal quantile ([`profile_z`]).
+    pub moved_z: f64,
+    /// Whether that is beyond [`MOVED_Z`] (the 99 % profile interval
+    /// excludes the neutral values).
+    pub moved: bool,
+    /// The targeted feature's magnitude before (current model) and after
+    /// (refit), for the target that shrank most.
+    pub target_before: f64,
+    /// See `target_before`.
+    pub target_after: f64,
+    /// Whether it fell to at most [`SHRINK`] of its value.
+    pub shrinks: bool,
+    /// Supported, evidence, moved and shrinks: the ladder may add it.
+    pub accepted: bool,
+    /// Why it is accepted or not, with the numbers.
+    pub reason: String,
     /// The refit.
     #[serde(skip)]
     pub fit: ModelFit,
@@ -137,6 +173,18 @@ pub const NUMERIC_BUDGET: usize = 20_000;
 
 /// BIC threshold for support.
 pub const SUPPORT: f64 = 10.0;
+
+/// Log Bayes factor (Laplace) a candidate needs: Kass & Raftery's
+/// "positive" (`2 ln B > 2`).
+pub const EVIDENCE: f64 = 1.0;
+
+/// How far (as a normal quantile of the profile-likelihood ratio) a
+/// candidate's own parameters must be from their neutral values: the
+/// 99 % profile interval excludes them.
+pub const MOVED_Z: f64 = 2.576;
+
+/// A targeted feature must fall to this fraction of its value.
+pub const SHRINK: f64 = 0.9;
 
 /// When the best candidate is not clearly told from another: both
 /// supported, and the runner-up reaches at least half of the best's BIC
@@ -167,13 +215,47 @@ pub fn caution_for(ranked: &[(&str, f64)]) -> Option<String> {
         )
     } else {
         format!(
-            "the difference, {:.1} in BIC, favours `{best}`, but one may stand in for the other; the ladder adds `{rival}` next only if it still pays",
+            "the difference, {:.1} in BIC, favours `{best}`, but one may stand in for the other; the ladder adds `{rival}` next only if it is still accepted",
             d - b
         )
     };
     Some(format!(
         "`{best}` (delta BIC {b:+.1}) and `{rival}` (delta BIC {d:+.1}) both explain much of the residual (`{rival}` reaches {share:.0} % of the best's gain in BIC): {verdict}."
     ))
+}
+
+/// What a criticism step concludes: the candidate added and why, or why
+/// none is, and (when none is) the residual structure left unexplained,
+/// in numbers.
+pub fn conclusion(diagnosis: &Diagnostics, ranked: &[RankedCandidate]) -> String {
+    if let Some(c) = ranked.iter().find(|c| c.accepted) {
+        return format!("`{}` {}.", c.effect, c.reason);
+    }
+    let left: Vec<String> = diagnosis
+        .features
+        .iter()
+        .filter(|f| f.significant)
+        .map(|f| {
+            let name = kind_name(f.kind);
+            if f.z.is_finite() {
+                format!("{name} {:.3} ({:.1} standard errors)", f.magnitude, f.z)
+            } else {
+                format!("{name} {:.3}", f.magnitude)
+            }
+        })
+        .collect();
+    let best = ranked
+        .first()
+        .map(|c| format!(" The best candidate, `{}`, is {}.", c.effect, c.reason))
+        .unwrap_or_default();
+    if left.is_empty() {
+        format!("No effect is added: the residual shows no structure left.{best}")
+    } else {
+        format!(
+            "No catalog effect explains the residual's remaining structure: {}.{best}",
+            left.join("; ")
+        )
+    }
 }
 
 /// [`caution_for`] of ranked candidates.
@@ -281,6 +363,7 @@ fn with_evidence(
     let map = &fit.map;
     let laplace = laplace_evidence(&fit.posterior, &map.theta, map.eval.log_posterior)?;
     let log_evidence = laplace.log_evidence;
+    let sd = (0..map.theta.len()).map(|k| laplace.sd(k)).collect();
     Ok(ModelFit {
         model: model.name(),
         names: map.names.clone(),
@@ -289,6 +372,7 @@ fn with_evidence(
         log_likelihood: cmp.log_likelihood,
         bic: cmp.bic,
         log_evidence,
+        sd,
         evaluations: map.evaluations(),
         noise: fit.posterior.noise(),
     })
@@ -416,7 +500,7 @@ pub fn rank_candidates(
         };
         let (refit, n_starts, agreeing) =
             multi_start(&c, starts(&c, &new, spread), data, noise, budget, &mut rng)?;
-        refits.push((c, score, refit, n_starts, agreeing));
+        refits.push((c, score, refit, n_starts, agreeing, new.len()));
     }
     // A candidate must not look supported because its refit found a better
     // basin of the parameters the current model has too.
@@ -439,21 +523,66 @@ pub fn rank_candidates(
         improve_baseline(&numeric, base, &refits, data, &numeric_budget, rng.random())?;
     }
     let fit = &fit;
+    let features_now = diagnosis_of(current, fit, data)?.features;
+    let features_numeric = match &numeric_baseline {
+        Some(b) => Some(diagnosis_of(&current.clone().numerically(), b, data)?.features),
+        None => None,
+    };
     let mut out = Vec::new();
-    for (c, score, refit, n_starts, agreeing) in refits {
-        let fit = match &numeric_baseline {
-            Some(b) if !c.model.closed_form() => b,
-            _ => fit,
+    for (c, score, refit, n_starts, agreeing, n_new) in refits {
+        let (fit, before) = match (&numeric_baseline, &features_numeric) {
+            (Some(b), Some(f)) if !c.model.closed_form() => (b, f),
+            _ => (fit, &features_now),
         };
-        let delta_bic = refit.bic - fit.bic;
+        let after = diagnosis_of(&c.model, &refit, data)?;
+        // Serial correlation the noise model leaves makes the likelihood
+        // overstate every difference: divided by the refit residual's
+        // dispersion (1 when it is white, so a true effect keeps its full
+        // weight).
+        let dispersion = after.dispersion;
+        let raw_ll = refit.log_likelihood - fit.log_likelihood;
+        let delta_ll = raw_ll / dispersion;
+        let delta_bic_raw = refit.bic - fit.bic;
+        let delta_bic = delta_bic_raw + 2.0 * (raw_ll - delta_ll);
+        let delta_log_evidence_raw = refit.log_evidence - fit.log_evidence;
+        let delta_log_evidence = delta_log_evidence_raw - (raw_ll - delta_ll);
+        let moved_z = profile_z(delta_ll, n_new);
+        let after = after.features;
+        let targets = if c.targets.is_empty() {
+            vec![FeatureKind::Colour]
+        } else {
+            c.targets.clone()
+        };
+        let (target_before, target_after) = shrink_of(&targets, before, &after);
+        let stands_in = absorbed(&targets, before, &after);
+        let gate = Gate {
+            stands_in,
+            delta_bic,
+            delta_log_evidence,
+            moved_z,
+            target_before,
+            target_after,
+        };
         out.push(RankedCandidate {
+            targets: c.targets.clone(),
+            evidence_supports: gate.evidence(),
+            moved_z,
+            moved: gate.moved(),
+            target_before,
+            target_after,
+            shrinks: gate.shrinks(),
+            accepted: gate.accepted(),
+            reason: gate.reason(&targets),
             effect: c.effect.clone(),
             model: refit.model.clone(),
             score,
             e2: refit.e2,
-            delta_log_likelihood: refit.log_likelihood - fit.log_likelihood,
+            delta_log_likelihood: raw_ll,
+            dispersion,
             delta_bic,
-            delta_log_evidence: refit.log_evidence - fit.log_evidence,
+            delta_bic_raw,
+            delta_log_evidence,
+            delta_log_evidence_raw,
             supported: delta_bic < -SUPPORT,
             signature: c.signature.clone(),
             starts: n_starts,
@@ -467,6 +596,197 @@ pub fn rank_candidates(
         candidates: out,
         current: fit.clone(),
     })
+}
+
+/// How far the profile-likelihood interval of `k` new parameters puts
+/// their neutral values, as a normal quantile: the likelihood-ratio
+/// statistic `2 dlogL`, chi-square with `k` degrees of freedom when they
+/// are neutral, turned into the `z` with the same tail probability.
+///
+/// ```
+/// use hbis::criticism::ranking::profile_z;
+/// // One parameter: z = sqrt(2 dlogL).
+/// assert!((profile_z(4.5, 1) - 3.0).abs() < 1e-6);
+/// assert_eq!(profile_z(-2.0, 1), 0.0);
+/// // Two parameters far from neutral stay finite.
+/// assert!(profile_z(500.0, 2).is_finite() && profile_z(500.0, 2) > 20.0);
+/// ```
+pub fn profile_z(delta_log_likelihood: f64, k: usize) -> f64 {
+    use statrs::distribution::{ChiSquared, ContinuousCDF, Normal};
+    let stat = 2.0 * delta_log_likelihood.max(0.0);
+    if stat == 0.0 || k == 0 {
+        return 0.0;
+    }
+    if k == 1 {
+        return stat.sqrt();
+    }
+    let tail = ChiSquared::new(k as f64).map_or(1.0, |c| c.sf(stat));
+    if tail < 1e-15 {
+        // Beyond what 1 - tail resolves: the Wilson-Hilferty cube-root
+        // approximation.
+        let kf = k as f64;
+        let v = 2.0 / (9.0 * kf);
+        return ((stat / kf).cbrt() - (1.0 - v)) / v.sqrt();
+    }
+    Normal::standard()
+        .inverse_cdf(1.0 - 0.5 * tail.min(1.0))
+        .max(0.0)
+}
+
+/// A specific structure (period, offset, spectral peak) that the
+/// candidate does not target, significant before and gone after its
+/// refit while the residual stays serially correlated: the candidate
+/// stands in for an effect it does not model. (A candidate that leaves a
+/// white residual explains the structure, whatever it targets: a missing
+/// damper also shifts the fitted stiffness and shows as period drift.)
+fn absorbed(targets: &[FeatureKind], before: &[Feature], after: &[Feature]) -> Option<String> {
+    use FeatureKind::*;
+    let coloured = after.iter().any(|f| f.kind == Colour && f.significant);
+    if !coloured {
+        return None;
+    }
+    before
+        .iter()
+        .filter(|f| f.significant && !targets.contains(&f.kind))
+        .filter(|f| matches!(f.kind, PeriodDrift | PeriodAmplitude | SpectralPeak | Offset))
+        .find_map(|f| {
+            let a = after.iter().find(|g| g.kind == f.kind)?;
+            (!a.significant).then(|| {
+                format!(
+                    "it removes the {} ({:.3} to {:.3}), which it does not produce: it stands in for an effect it does not model",
+                    kind_name(f.kind),
+                    f.magnitude,
+                    a.magnitude
+                )
+            })
+        })
+}
+
+/// The kebab-case name of a feature kind (as in the JSON).
+fn kind_name(k: FeatureKind) -> String {
+    serde_json::to_value(k)
+        .ok()
+        .and_then(|v| v.as_str().map(String::from))
+        .unwrap_or_default()
+}
+
+/// The targeted feature that shrank most (by ratio): before and after.
+fn shrink_of(targets: &[FeatureKind], before: &[Feature], after: &[Feature]) -> (f64, f64) {
+    let find =
+        |fs: &[Feature], k: FeatureKind| fs.iter().find(|f| f.kind == k).map(|f| f.magnitude);
+    targets
+        .iter()
+        .filter_map(|&k| Some((find(before, k)?, find(after, k)?)))
+        // A structure absent before cannot shrink (0/0 must not pass).
+        .filter(|(b, a)| *b > 0.0 && a.is_finite())
+        .min_by(|a, b| (a.1 / a.0).total_cmp(&(b.1 / b.0)))
+        .unwrap_or((f64::NAN, f64::NAN))
+}
+
+/// The four conditions for adding a candidate (false-discovery control).
+///
+/// ```
+/// use hbis::criticism::ranking::Gate;
+/// let g = Gate { stands_in: None, delta_bic: -40.0, delta_log_evidence: 12.0, moved_z: 6.0, target_before: 3.0, target_after: 1.0 };
+/// assert!(g.accepted());
+/// // A parameter that stays at its neutral value: not added.
+/// let g = Gate { moved_z: 1.2, ..g.clone() };
+/// assert!(!g.accepted() && g.reason(&[]).contains("1.2 (profile z)"));
+/// ```
+#[derive(Debug, Clone)]
+pub struct Gate {
+    /// Set when it removes a structure it does not target: a period, offset or spectral structure gone while the residual stays coloured.
+    pub stands_in: Option<String>,
+    /// Change of BIC.
+    pub delta_bic: f64,
+    /// Change of the Laplace log-evidence.
+    pub delta_log_evidence: f64,
+    /// Distance of its own parameters from neutral ([`profile_z`]).
+    pub moved_z: f64,
+    /// Its targeted feature before.
+    pub target_before: f64,
+    /// And after.
+    pub target_after: f64,
+}
+
+impl Gate {
+    /// BIC lower by more than [`SUPPORT`].
+    pub fn supported(&self) -> bool {
+        self.delta_bic < -SUPPORT
+    }
+    /// Log Bayes factor above [`EVIDENCE`].
+    pub fn evidence(&self) -> bool {
+        self.delta_log_evidence > EVIDENCE
+    }
+    /// A parameter beyond [`MOVED_Z`] sds from neutral.
+    pub fn moved(&self) -> bool {
+        self.moved_z > MOVED_Z
+    }
+    /// The targeted feature at most [`SHRINK`] of its value.
+    pub fn shrinks(&self) -> bool {
+        self.target_after <= SHRINK * self.target_before
+    }
+    /// All four, and it stands in for nothing.
+    pub fn accepted(&self) -> bool {
+        self.supported()
+            && self.evidence()
+            && self.moved()
+            && self.shrinks()
+            && self.stands_in.is_none()
+    }
+    /// The reason, with the numbers (`targets` named).
+    pub fn reason(&self, targets: &[FeatureKind]) -> String {
+        let names: Vec<String> = targets.iter().map(|&t| kind_name(t)).collect();
+        let mut why = Vec::new();
+        if !self.supported() {
+            why.push(format!(
+                "BIC changes by {:+.1}, not below -{SUPPORT}",
+                self.delta_bic
+            ));
+        }
+        if !self.evidence() {
+            why.push(format!(
+                "the log-evidence changes by {:+.1}, not above {EVIDENCE}",
+                self.delta_log_evidence
+            ));
+        }
+        if !self.moved() {
+            why.push(format!(
+                "its parameters are {:.1} (profile z) from their neutral values, not beyond {MOVED_Z}",
+                self.moved_z
+            ));
+        }
+        if !self.shrinks() && self.target_before.is_nan() {
+            why.push(format!(
+                "none of the residual structure it targets ({}) is present",
+                names.join(", ")
+            ));
+        } else if !self.shrinks() {
+            why.push(format!(
+                "the residual structure it targets ({}) goes from {:.3} to {:.3}, not below {:.0} % of it",
+                names.join(", "),
+                self.target_before,
+                self.target_after,
+                100.0 * SHRINK
+            ));
+        }
+        if let Some(s) = &self.stands_in {
+            why.push(s.clone());
+        }
+        if why.is_empty() {
+            format!(
+                "added: BIC {:+.1}, log-evidence {:+.1}, its parameters {:.1} (profile z) from neutral, {} from {:.3} to {:.3}",
+                self.delta_bic,
+                self.delta_log_evidence,
+                self.moved_z,
+                names.join(", "),
+                self.target_before,
+                self.target_after
+            )
+        } else {
+            format!("not added: {}", why.join("; "))
+        }
+    }
 }
 
 /// Ranked candidates, and the current model's fit they are compared with.
@@ -485,7 +805,7 @@ pub struct Ranking {
 fn improve_baseline(
     current: &Model,
     base: &mut ModelFit,
-    refits: &[(Candidate, f64, ModelFit, usize, usize)],
+    refits: &[(Candidate, f64, ModelFit, usize, usize, usize)],
     data: &Aligned,
     budget: &MapSettings,
     seed: u64,
@@ -498,7 +818,7 @@ fn improve_baseline(
     )?;
     let mut best: Option<(f64, Vec<f64>)> = None;
     let same_engine = |c: &Candidate| c.model.closed_form() == current.closed_form();
-    for (c, _, refit, _, _) in refits.iter().filter(|r| same_engine(&r.0)) {
+    for (c, _, refit, _, _, _) in refits.iter().filter(|r| same_engine(&r.0)) {
         let layout = c.model.layout();
         // The current model's values from the refit, with its noise
         // parameters (`rho` last, as the posterior lays them out).
@@ -636,6 +956,8 @@ pub struct Step {
     /// When the best candidate is not told apart from another
     /// ([`caution`]).
     pub caution: Option<String>,
+    /// What the step concludes ([`conclusion`]).
+    pub conclusion: String,
     /// The fit.
     #[serde(skip)]
     pub fit: ModelFit,
@@ -651,6 +973,7 @@ pub fn diagnosis_of(
     let theta = fit.model_theta(model);
     data.model_accel_into(model, theta, &mut accel)?;
     let base = model.core_params(theta).map_err(SimError::from)?;
+    let motion = model.motion_grid(theta, data.lag, data.dt, data.a.len())?;
     let rho = Posterior::layout_for(model, fit.noise)
         .values(&fit.theta, 1)
         .first()
@@ -658,6 +981,7 @@ pub fn diagnosis_of(
     Ok(diagnose(
         &model.spec(),
         &base,
+        &motion,
         &data.a,
         &accel,
         data.dt,
@@ -821,7 +1145,7 @@ pub fn ladder_observed(
             cands = ranking.candidates;
             diagnosis = diagnosis_of(&model, &fit, &data)?;
         }
-        let next = cands.first().filter(|c| c.supported).cloned();
+        let next = cands.iter().find(|c| c.accepted).cloned();
         steps.push(Step {
             model: model.name(),
             added: added.clone(),
@@ -832,6 +1156,7 @@ pub fn ladder_observed(
             diagnosis: diagnosis.clone(),
             candidates: cands.clone(),
             caution: caution(&cands),
+            conclusion: conclusion(&diagnosis, &cands),
             fit: fit.clone(),
         });
         on_step(steps.last().expect("just pushed"));

@@ -18,13 +18,22 @@
 //! # Formula
 //! ```text
 //! Ljung-Box: Q = n (n + 2) sum_(k=1..h) rho_k^2 / (n - k),  p = P(chi2_h > Q)
-//! jump at a reversal: mean(a[i+2..=i+4]) - mean(a[i-4..=i-2])  (same for model and record)
+//! jump at a reversal (velocity changes sign between samples i-1 and i):
+//!   line through a[i+2..=i+6] minus line through a[i-6..=i-2], both at
+//!   i - 1/2   (same for model and record)
 //! ```
+//! The lines keep a wrong stiffness (another slope of the acceleration on
+//! either side) out of the jump; a sample is left out on each side so that
+//! a record reversing a sample off the model keeps its jump outside the
+//! lines. The structure features and the verdict are in
+//! [`super::features`].
 
 use serde::Serialize;
 use statrs::distribution::{ChiSquared, ContinuousCDF};
 
-use crate::model::{ModelSpec, Params, Response, SimError};
+use super::features::{self, Feature};
+use crate::model::numeric::Motion;
+use crate::model::{ModelSpec, Params, SimError};
 
 /// Residual size of one group of samples.
 #[derive(Debug, Clone, Serialize)]
@@ -52,6 +61,20 @@ pub struct HalfCycle {
     pub period_record: Option<f64>,
     /// The same on the model's acceleration (s).
     pub period_model: Option<f64>,
+    /// The record regressed on the model in it, `<a, m> / <m, m>`: its
+    /// size relative to the model's, unbiased by noise.
+    pub gain: f64,
+    /// The standard error of `gain`, `rms / sqrt(<m, m>)`.
+    pub gain_se: f64,
+    /// Its start, time after the release (s).
+    pub start: f64,
+    /// Its end (s).
+    pub end: f64,
+    /// How late the record runs against the model in it (s; negative:
+    /// early), `-<r, dm/dt> / <dm/dt, dm/dt>` away from the reversals.
+    pub shift: f64,
+    /// The standard error of `shift` (s).
+    pub shift_se: f64,
 }
 
 /// The acceleration jump at one reversal.
@@ -98,6 +121,13 @@ pub struct Diagnostics {
     pub half_cycles: Vec<HalfCycle>,
     /// At each reversal.
     pub jumps: Vec<Jump>,
+    /// The noise level: the median absolute second difference of the
+    /// residual over `0.6745 sqrt(6 - 8 rho + 2 rho^2)` (`rho` of the fitted
+    /// AR(1) noise, 0 for white), m/s^2.
+    pub noise_sd: f64,
+    /// Noise sd of one jump, `noise_sd sqrt(3.65)` (two line
+    /// extrapolations).
+    pub jump_sd: f64,
     /// Ljung-Box statistic over 20 lags (of the whitened residual when the
     /// fit has AR(1) noise: `whitened_rho`).
     pub ljung_box_q: f64,
@@ -111,6 +141,11 @@ pub struct Diagnostics {
     /// The fitted AR(1) coefficient the residual was whitened with before
     /// judging its whiteness (`e_i - rho e_(i-1)`); `None` for white noise.
     pub whitened_rho: Option<f64>,
+    /// How much the serial correlation left in the (whitened) residual
+    /// inflates the variance of a sum of it: its long-run variance over its
+    /// variance ([`dispersion`]), at least 1. A likelihood that takes the
+    /// samples as independent overstates every difference by this factor.
+    pub dispersion: f64,
     /// Dominant residual frequency (Hz), as in `spectrum`.
     pub dominant_frequency_hz: f64,
     /// The spectrum.
@@ -122,31 +157,40 @@ pub struct Diagnostics {
     /// Mean residual force per unit mass `-(a_meas - a_model)` per bin
     /// (`[u bin][v bin]`, NaN where empty), N/kg.
     pub map_force: Vec<Vec<f64>>,
+    /// The residual's structure, measured ([`super::features`]).
+    pub features: Vec<Feature>,
     /// The verdict.
     pub verdict: String,
 }
 
 /// Computes the diagnostics. `measured` and `model` are sampled every `dt`
-/// from the release; `spec` and `base` give the closed-form base response
-/// at the MAP (phases, displacement, velocity); `sigma` is the noise level
-/// the fit implies if known (else the residual RMS is used).
+/// from the release; `motion` is the model's motion on the same grid
+/// ([`crate::model::Model::motion_grid`]: phases, displacement, velocity,
+/// with every force component acting); `spec` and `base` give the spring's
+/// frequencies; `whiten` is the fitted AR(1) coefficient, if any.
 pub fn diagnose(
     spec: &ModelSpec,
     base: &Params,
+    motion: &[Motion],
     measured: &[f64],
     model: &[f64],
     dt: f64,
     whiten: Option<f64>,
 ) -> Result<Diagnostics, SimError> {
-    let n = measured.len().min(model.len());
+    let n = measured.len().min(model.len()).min(motion.len());
+    if n < 3 {
+        return Err(SimError::Grid {
+            name: "samples",
+            value: n as f64,
+            requirement: "at least 3 samples of record, model and motion are needed",
+        });
+    }
     let r: Vec<f64> = (0..n).map(|i| measured[i] - model[i]).collect();
     let energy: f64 = measured[..n].iter().map(|v| v * v).sum();
     let sse: f64 = r.iter().map(|v| v * v).sum();
     let rms = (sse / n as f64).sqrt();
     let mean = r.iter().sum::<f64>() / n as f64;
-    let resp = Response::simulate(spec, base, dt * (n - 1) as f64)?;
-    let samples = resp.sample_grid(dt)?;
-    let samples = &samples[..n.min(samples.len())];
+    let samples = &motion[..n];
     // Groups by phase.
     let mut by_phase: Vec<GroupResidual> = Vec::new();
     for (s, v) in samples.iter().zip(&r) {
@@ -199,6 +243,22 @@ pub fn diagnose(
             .collect()
     };
     let (pr, pm) = (peak_times(&measured[..n]), peak_times(&model[..n]));
+    // The noise level, from the residual's second differences (a smooth
+    // misfit cancels in them; the median keeps the jumps out), so that
+    // the structure's standard errors do not grow with the misfit itself.
+    let sd = noise_sd(&r, whiten).unwrap_or(rms);
+    // The model's rate of change, away from the jumps at reversals: a
+    // record delayed by tau against the model leaves r ~ -tau dm/dt.
+    let near_reversal = |i: usize| rev.iter().any(|&j| i + 3 >= j && i <= j + 3);
+    let slope_m: Vec<f64> = (0..n)
+        .map(|i| {
+            if i == 0 || i + 1 >= n || near_reversal(i) {
+                0.0
+            } else {
+                (model[i + 1] - model[i - 1]) / (2.0 * dt)
+            }
+        })
+        .collect();
     let mut half_cycles = Vec::new();
     for k in 0..bounds.len() - 1 {
         let (a, b) = (bounds[k], bounds[k + 1]);
@@ -213,28 +273,35 @@ pub fn diagnose(
         } else {
             (None, None)
         };
+        // Centred within the half-cycle, so that an offset enters neither
+        // the gain nor the shift.
+        let (mm, am) = centred_products(&model[a..b], &measured[a..b]);
+        let (gg, rg) = centred_products(&slope_m[a..b], &r[a..b]);
+        let (shift, shift_se) = if gg > 0.0 {
+            (-rg / gg, sd / gg.sqrt())
+        } else {
+            (f64::NAN, f64::NAN)
+        };
         half_cycles.push(HalfCycle {
             index: k,
+            start: a as f64 * dt,
+            end: b as f64 * dt,
+            shift,
+            shift_se,
             amplitude: amp,
             rms: seg_rms,
             period_record: p_rec,
             period_model: p_mod,
+            gain: if mm > 0.0 { am / mm } else { f64::NAN },
+            gain_se: if mm > 0.0 { sd / mm.sqrt() } else { f64::NAN },
         });
     }
     // Jumps at reversals.
     let jump = |a: &[f64], i: usize| -> Option<f64> {
-        if i < 3 || i + 3 >= a.len() {
+        if i < 6 || i + 6 >= a.len() {
             return None;
         }
-        // One sample left out on each side of the reversal sample, so that
-        // a record whose reversal falls a sample earlier or later than the
-        // model's still has its whole jump inside the window.
-        if i < 4 || i + 4 >= a.len() {
-            return None;
-        }
-        let after = (a[i + 2] + a[i + 3] + a[i + 4]) / 3.0;
-        let before = (a[i - 2] + a[i - 3] + a[i - 4]) / 3.0;
-        Some(after - before)
+        Some(line_at(a, i + 2..=i + 6, i) - line_at(a, i - 6..=i - 2, i))
     };
     let jumps: Vec<Jump> = rev
         .iter()
@@ -272,6 +339,7 @@ pub fn diagnose(
         .map(|c| 1.0 - c.cdf(q))
         .unwrap_or(f64::NAN);
     let lag1 = autocorrelation(&w, 1);
+    let dispersion = dispersion(&w);
     // Spectrum (Hann window, periodogram).
     let size = n.next_power_of_two();
     let mut buf: Vec<rustfft::num_complex::Complex<f64>> = (0..size)
@@ -361,6 +429,9 @@ pub fn diagnose(
         })
         .collect();
     let mut d = Diagnostics {
+        noise_sd: sd,
+        jump_sd: sd * 3.65f64.sqrt(),
+        features: Vec::new(),
         e2: sse / energy,
         rms,
         mean,
@@ -373,6 +444,7 @@ pub fn diagnose(
         lag1,
         lag1_raw,
         whitened_rho: whiten,
+        dispersion,
         dominant_frequency_hz: spectrum.dominant_frequency_hz,
         spectrum,
         map_u_edges: ue,
@@ -380,8 +452,82 @@ pub fn diagnose(
         map_force,
         verdict: String::new(),
     };
-    d.verdict = verdict(&d, n);
+    d.features = features::all(&d, n);
+    d.verdict = features::verdict(&d, &d.features);
     Ok(d)
+}
+
+/// The noise sd from the residual's second differences: their median
+/// absolute value over `0.6745 sqrt(6 - 8 rho + 2 rho^2)` (the sd of a
+/// second difference of AR(1) noise of unit variance is
+/// `sqrt(6 - 8 rho + 2 rho^2)`).
+fn noise_sd(r: &[f64], rho: Option<f64>) -> Option<f64> {
+    let mut d2: Vec<f64> = r
+        .windows(3)
+        .map(|w| (w[2] - 2.0 * w[1] + w[0]).abs())
+        .collect();
+    if d2.is_empty() {
+        return None;
+    }
+    let mid = d2.len() / 2;
+    let (_, med, _) = d2.select_nth_unstable_by(mid, f64::total_cmp);
+    let rho = rho.unwrap_or(0.0);
+    let s = *med / 0.6745 / (6.0 - 8.0 * rho + 2.0 * rho * rho).max(1e-6).sqrt();
+    (s > 0.0).then_some(s)
+}
+
+/// `(sum (x - mean x)^2, sum (x - mean x)(y - mean y))`.
+fn centred_products(x: &[f64], y: &[f64]) -> (f64, f64) {
+    let n = x.len().max(1) as f64;
+    let (mx, my) = (x.iter().sum::<f64>() / n, y.iter().sum::<f64>() / n);
+    let xx = x.iter().map(|v| (v - mx).powi(2)).sum();
+    let xy = x.iter().zip(y).map(|(a, b)| (a - mx) * (b - my)).sum();
+    (xx, xy)
+}
+
+/// The least-squares line through `a[range]`, evaluated half a sample
+/// before sample `i` (where a reversal between samples `i - 1` and `i` is
+/// placed).
+fn line_at(a: &[f64], range: std::ops::RangeInclusive<usize>, i: usize) -> f64 {
+    let x0 = i as f64 - 0.5;
+    let pts: Vec<(f64, f64)> = range.map(|k| (k as f64 - x0, a[k])).collect();
+    let n = pts.len() as f64;
+    let mx = pts.iter().map(|p| p.0).sum::<f64>() / n;
+    let my = pts.iter().map(|p| p.1).sum::<f64>() / n;
+    let sxx: f64 = pts.iter().map(|p| (p.0 - mx).powi(2)).sum();
+    let b = pts.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum::<f64>() / sxx;
+    my - b * mx
+}
+
+/// The long-run variance of `w` over its variance, with Bartlett weights
+/// up to the Newey-West lag, floored at 1 (a likelihood is never made
+/// stronger than it says).
+///
+/// # Formula
+/// ```text
+/// c = 1 + 2 sum_(k=1..K) (1 - k/(K+1)) rho_k,  K = floor(4 (n/100)^(2/9))
+/// ```
+/// ```
+/// use hbis::criticism::residuals::dispersion;
+/// use rand::{rngs::StdRng, SeedableRng};
+/// use rand_distr::{Distribution, StandardNormal};
+/// let mut rng = StdRng::seed_from_u64(1);
+/// let e: Vec<f64> = (0..4001).map(|_| StandardNormal.sample(&mut rng)).collect();
+/// // White noise: 1.
+/// assert!(dispersion(&e) < 1.1);
+/// // A moving sum of two: lag-one correlation 1/2, K = 9 at n = 4000,
+/// // c = 1 + 2 (1 - 1/10) / 2 = 1.9 (sd of the estimate about 0.06).
+/// let w: Vec<f64> = e.windows(2).map(|p| p[0] + p[1]).collect();
+/// assert!((dispersion(&w) - 1.9).abs() < 0.15, "{}", dispersion(&w));
+/// ```
+pub fn dispersion(w: &[f64]) -> f64 {
+    let n = w.len();
+    let lags = (4.0 * (n as f64 / 100.0).powf(2.0 / 9.0)).floor() as usize;
+    let lags = lags.min(n / 4);
+    let sum: f64 = (1..=lags)
+        .map(|k| (1.0 - k as f64 / (lags + 1) as f64) * autocorrelation(w, k))
+        .sum();
+    (1.0 + 2.0 * sum).max(1.0)
 }
 
 /// Lag-`k` autocorrelation of `x` about its mean.
@@ -393,141 +539,4 @@ fn autocorrelation(x: &[f64], k: usize) -> f64 {
         .map(|i| (x[i] - mean) * (x[i - k] - mean))
         .sum::<f64>()
         / c0
-}
-
-/// The verdict, in the user's terms.
-fn verdict(d: &Diagnostics, n: usize) -> String {
-    let mut lines: Vec<String> = Vec::new();
-    // An offset: the mean residual stands out from its standard error
-    // (inflated for correlation, since correlated residuals average slower).
-    let se = d.rms / (n as f64).sqrt()
-        * ((1.0 + d.lag1_raw.max(0.0)) / (1.0 - d.lag1_raw.clamp(0.0, 0.99))).sqrt();
-    let offset = d.mean.abs() > 5.0 * se;
-    let white = d.ljung_box_p > 0.01 && d.lag1.abs() < 0.2;
-    let whitened = match d.whitened_rho {
-        Some(rho) => format!(
-            ", whitened by the fitted AR(1) noise (rho = {rho:.2}; lag-one correlation {:.2} before),",
-            d.lag1_raw
-        ),
-        None => String::new(),
-    };
-    if white && !offset {
-        lines.push(format!(
-            "The residual (RMS {:.2e} m/s^2, e2 = {:.5}){whitened} is consistent with white noise (Ljung-Box p = {:.2}): the record shows no missing effect.",
-            d.rms, d.e2, d.ljung_box_p
-        ));
-        return lines.join(" ");
-    }
-    if white {
-        lines.push(format!(
-            "The residual (RMS {:.2e} m/s^2, e2 = {:.5}){whitened} fluctuates like white noise (Ljung-Box p = {:.2}) but not around zero.",
-            d.rms, d.e2, d.ljung_box_p
-        ));
-    } else {
-        lines.push(format!(
-            "The residual (RMS {:.2e} m/s^2, e2 = {:.5}){whitened} is not white noise (Ljung-Box p = {:.1e}, lag-one correlation {:.2}): the model misses something.",
-            d.rms, d.e2, d.ljung_box_p, d.lag1
-        ));
-    }
-    if offset {
-        lines.push(format!(
-            "Its mean is {:+.2e} m/s^2 ({:.0} standard errors){}: the accelerometer reads with an offset.",
-            d.mean,
-            d.mean.abs() / se,
-            d.mean_at_rest.map_or(String::new(), |m| format!(", {m:+.2e} m/s^2 while the model is at rest"))
-        ));
-    }
-    let s = &d.spectrum;
-    if !s.model_can_produce && s.dominant_share > 0.1 {
-        lines.push(format!(
-            "The residual oscillates at {:.2} Hz ({:.0} % of its power), which the model cannot produce (its frequencies are {} Hz): an unmodelled oscillation at {:.2} Hz, such as a flexible superstructure mode ringing after the friction jumps.",
-            s.dominant_frequency_hz,
-            100.0 * s.dominant_share,
-            s.model_frequencies_hz.iter().map(|f| format!("{f:.2}")).collect::<Vec<_>>().join(", "),
-            s.dominant_frequency_hz
-        ));
-    }
-    // Period against amplitude, on the swings large enough to time well.
-    let a_max = d
-        .half_cycles
-        .iter()
-        .map(|h| h.amplitude)
-        .fold(0.0, f64::max);
-    let periods: Vec<(f64, f64)> = d
-        .half_cycles
-        .iter()
-        .filter(|h| h.amplitude >= 0.25 * a_max)
-        .filter_map(|h| Some((h.amplitude, h.period_record? / h.period_model? - 1.0)))
-        .collect();
-    let off: Vec<&(f64, f64)> = periods.iter().filter(|(_, e)| e.abs() > 0.02).collect();
-    if off.len() >= 2 && off.iter().all(|(_, e)| e.signum() == off[0].1.signum()) {
-        let a_min = off.iter().map(|(a, _)| *a).fold(f64::INFINITY, f64::min);
-        let mean_err = off.iter().map(|(_, e)| e).sum::<f64>() / off.len() as f64;
-        lines.push(format!(
-            "The model's half-cycle period is {} than the record's by {:.1} % on average at amplitudes of {:.3} m and above: {}.",
-            if mean_err > 0.0 { "shorter" } else { "longer" },
-            100.0 * mean_err.abs(),
-            a_min,
-            if mean_err > 0.0 {
-                "the structure is softer there than the model"
-            } else {
-                "the structure is stiffer there than the model"
-            }
-        ));
-    }
-    // Jumps: the record's jumps regressed on the model's, judged against the
-    // noise of the three-sample means (sd of a jump = rms sqrt(2/3)).
-    let js: Vec<&Jump> = d.jumps.iter().filter(|j| j.model.abs() > 0.0).collect();
-    if js.len() >= 2 {
-        let mm: f64 = js.iter().map(|j| j.model * j.model).sum();
-        let ratio = js.iter().map(|j| j.record * j.model).sum::<f64>() / mm;
-        let se = d.rms * (2.0f64 / 3.0).sqrt() / mm.sqrt();
-        if (ratio - 1.0).abs() > 0.1 && (ratio - 1.0).abs() > 3.0 * se {
-            lines.push(format!(
-                "The acceleration jumps at reversals are {:.0} % {} in the record than in the model: the friction force at reversals is {} than modelled{}.",
-                100.0 * (ratio - 1.0).abs(),
-                if ratio > 1.0 { "larger" } else { "smaller" },
-                if ratio > 1.0 { "larger" } else { "smaller" },
-                amplitude_trend(&js)
-            ));
-        }
-    }
-    if let Some(worst) = d
-        .by_phase
-        .iter()
-        .filter(|g| g.samples >= 10)
-        .max_by(|a, b| a.rms.total_cmp(&b.rms))
-    {
-        lines.push(format!(
-            "The residual is largest in the {} phase (RMS {:.2e} m/s^2).",
-            worst.group, worst.rms
-        ));
-    }
-    lines.join(" ")
-}
-
-/// Whether the jump mismatch grows or shrinks with the amplitude.
-fn amplitude_trend(js: &[&Jump]) -> String {
-    let x: Vec<f64> = js.iter().map(|j| j.u.abs()).collect();
-    let y: Vec<f64> = js
-        .iter()
-        .map(|j| (j.record - j.model) * j.model.signum())
-        .collect();
-    let n = x.len() as f64;
-    let (mx, my) = (x.iter().sum::<f64>() / n, y.iter().sum::<f64>() / n);
-    let sxy: f64 = x.iter().zip(&y).map(|(a, b)| (a - mx) * (b - my)).sum();
-    let sxx: f64 = x.iter().map(|a| (a - mx).powi(2)).sum();
-    let syy: f64 = y.iter().map(|b| (b - my).powi(2)).sum();
-    if sxx <= 0.0 || syy <= 0.0 {
-        return String::new();
-    }
-    let r = sxy / (sxx * syy).sqrt();
-    if r.abs() > 0.7 {
-        format!(
-            ", and the mismatch {} with the amplitude (correlation {r:+.2})",
-            if r > 0.0 { "grows" } else { "shrinks" }
-        )
-    } else {
-        String::new()
-    }
 }

@@ -29,7 +29,10 @@ use serde::Serialize;
 use thiserror::Error;
 
 use super::ensemble::SamplerError;
-use super::laplace::{axis_scales, covariance_from, hessian, log_evidence, Laplace, STEP};
+use super::laplace::{
+    axis_scales, bulk_value, covariance_from, hessian, log_evidence, neighbourhood, Laplace,
+    SCALE_DROP, STEP,
+};
 use super::likelihood::{ar1_sum, sum_of_squares};
 use super::release::{fit_lag, LagError};
 use super::{
@@ -147,11 +150,38 @@ pub fn profile_log_likelihood(n: usize, s: f64, rho: Option<f64>) -> f64 {
     white + rho.map_or(0.0, |r| 0.5 * (1.0 - r * r).ln())
 }
 
-/// BIC and the maximised log-likelihood of `posterior` at `theta`.
+/// BIC and the maximised log-likelihood of `posterior` at `theta`: the
+/// bulk's value there ([`bulk_value`]), so that a model cannot gain by
+/// placing more reversals on the favourable side of sample instants.
 pub fn compare<M: ForwardModel>(
     posterior: &Posterior<M>,
     theta: &[f64],
 ) -> Result<Comparison, PipelineError> {
+    let (lo, hi) = posterior.priors().box_bounds();
+    // Outside the prior's support (a constraint such as `f1 < f0`) the
+    // model may not run: -inf there.
+    let ll = |x: &[f64]| -> Result<f64, PipelineError> {
+        if posterior.log_posterior(x)? == f64::NEG_INFINITY {
+            return Ok(f64::NEG_INFINITY);
+        }
+        log_likelihood_at(posterior, x)
+    };
+    let log_likelihood = bulk_value(&ll, theta, &lo, &hi)?.min(ll(theta)?);
+    let n = posterior.data().a.len();
+    let d = theta.len();
+    Ok(Comparison {
+        log_likelihood,
+        bic: (d as f64 + 1.0) * (n as f64).ln() - 2.0 * log_likelihood,
+        samples: n,
+        parameters: d,
+    })
+}
+
+/// The sigma-profiled log-likelihood of `posterior`'s record at `theta`.
+fn log_likelihood_at<M: ForwardModel>(
+    posterior: &Posterior<M>,
+    theta: &[f64],
+) -> Result<f64, PipelineError> {
     let model = posterior.model_accel(theta)?;
     let r: Vec<f64> = posterior
         .data()
@@ -165,15 +195,7 @@ pub fn compare<M: ForwardModel>(
         Some(rho) => ar1_sum(&r, rho).0,
         None => sum_of_squares(&r),
     };
-    let n = r.len();
-    let log_likelihood = profile_log_likelihood(n, s, rho);
-    let d = theta.len();
-    Ok(Comparison {
-        log_likelihood,
-        bic: (d as f64 + 1.0) * (n as f64).ln() - 2.0 * log_likelihood,
-        samples: n,
-        parameters: d,
-    })
+    Ok(profile_log_likelihood(r.len(), s, rho))
 }
 
 /// Laplace's approximation of the log-evidence at the MAP `theta`
@@ -188,14 +210,18 @@ pub fn laplace_evidence<M: ForwardModel + Clone>(
     let (lo, hi) = post.priors().box_bounds();
     let range: Vec<f64> = lo.iter().zip(&hi).map(|(l, h)| h - l).collect();
     let f = |x: &[f64]| post.log_posterior(x);
-    let h: Vec<f64> = axis_scales(&f, theta, &range, 0.5)?
+    // The MAP's own value may be a spike above the bulk ([`bulk_value`]):
+    // the curvature is the bulk's, and the centre is worth what its
+    // neighbourhood is worth to the integral.
+    let near = neighbourhood(&f, theta, &lo, &hi)?;
+    let h: Vec<f64> = axis_scales(&f, theta, near.median.min(lp), &range, SCALE_DROP)?
         .iter()
         .zip(&range)
         .map(|(s, r)| (STEP * s).min(0.25 * r))
         .collect();
     let hess = hessian(&f, theta, &h, &lo, &hi)?;
     let (covariance, method) = covariance_from(&hess, &h);
-    let laplace = log_evidence(lp, &covariance, &h);
+    let laplace = log_evidence(near.log_mean_exp.min(lp), &covariance, &h);
     Ok(Laplace {
         log_evidence: laplace,
         covariance,

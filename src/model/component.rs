@@ -157,6 +157,11 @@ pub trait ForceComponent: Send + Sync {
     fn signature(&self) -> &str {
         self.meaning()
     }
+    /// The residual structure it explains when missing; empty: the
+    /// residual's serial correlation as a whole.
+    fn targets(&self) -> Vec<FeatureKind> {
+        Vec::new()
+    }
     /// The slot it fills, for the paper's spring laws, friction laws and
     /// damper; `None` for a component that modifies the forces.
     fn core(&self) -> Option<Core> {
@@ -212,4 +217,35 @@ pub trait OutputComponent: Send + Sync {
     fn meaning(&self) -> &str;
     /// Applies it with parameters `theta` to `accel` sampled every `dt`.
     fn apply(&self, theta: &[f64], dt: f64, accel: &mut [f64]);
+    /// The residual structure it explains when missing; empty: the
+    /// residual's serial correlation as a whole.
+    fn targets(&self) -> Vec<FeatureKind> {
+        Vec::new()
+    }
+}
+
+/// A kind of residual structure (measured by
+/// [`crate::criticism::features`]): what a component explains when it is
+/// missing, so that criticism adds it only if that structure shrinks.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum FeatureKind {
+    /// Serial correlation left in the (whitened) residual: Ljung-Box `Q`.
+    Colour,
+    /// A mean residual: the accelerometer's offset.
+    Offset,
+    /// Half-cycle periods off by amplitude (an amplitude-dependent
+    /// stiffness the spring law lacks).
+    PeriodAmplitude,
+    /// Half-cycle period error that drifts across the test (a stiffness
+    /// that changes during it).
+    PeriodDrift,
+    /// Swings that decay faster or slower than the model's (dissipation).
+    DecayRate,
+    /// Acceleration jumps at reversals larger or smaller (friction there).
+    JumpSize,
+    /// Jumps that differ by direction of sliding (asymmetric friction).
+    JumpDirection,
+    /// A residual oscillation at a frequency the model cannot produce.
+    SpectralPeak,
 }

@@ -31,7 +31,7 @@ use std::sync::Arc;
 use super::component::{ForceComponent, OutputComponent, ParamSpec, Slot};
 use super::error::{ParamError, SimError};
 use super::layout::Layout;
-use super::numeric::NumericSystem;
+use super::numeric::{Motion, NumericSystem};
 use super::params::Params;
 use super::simulate::{SimOptions, System};
 use super::spec::{DamperKind, FrictionKind, ModelSpec};
@@ -246,6 +246,34 @@ impl Model {
         self.numeric_grid_into(theta, start, dt, out)
     }
 
+    /// The motion (displacement, velocity, acceleration before output
+    /// components, spring phase) at `t_i = start + i dt`, `n` samples, by
+    /// the numerical engine whatever the model: one path for every model,
+    /// its own forces included (criticism places the reversals on it; the
+    /// closed-form core alone would misplace them once another force
+    /// component acts).
+    pub fn motion_grid(
+        &self,
+        theta: &[f64],
+        start: f64,
+        dt: f64,
+        n: usize,
+    ) -> Result<Vec<Motion>, SimError> {
+        let system = self.system(theta)?;
+        let terms = self.numeric_terms(theta);
+        NumericSystem::with_terms(system, &terms).motion_grid(start, dt, n)
+    }
+
+    /// The components solved numerically, with their parameter values.
+    fn numeric_terms<'a>(&'a self, theta: &'a [f64]) -> Vec<(&'a dyn ForceComponent, &'a [f64])> {
+        self.forces
+            .iter()
+            .enumerate()
+            .filter(|(_, c)| !c.piecewise_linear())
+            .map(|(i, c)| (c.as_ref(), self.layout.values(theta, 1 + i)))
+            .collect()
+    }
+
     /// The motion's acceleration computed by the numerical engine even when
     /// the closed form applies: the cross-check of the two engines.
     pub fn numeric_grid_into(
@@ -256,13 +284,7 @@ impl Model {
         out: &mut [f64],
     ) -> Result<(), SimError> {
         let system = self.system(theta)?;
-        let terms: Vec<(&dyn ForceComponent, &[f64])> = self
-            .forces
-            .iter()
-            .enumerate()
-            .filter(|(_, c)| !c.piecewise_linear())
-            .map(|(i, c)| (c.as_ref(), self.layout.values(theta, 1 + i)))
-            .collect();
+        let terms = self.numeric_terms(theta);
         NumericSystem::with_terms(system, &terms).accel_grid_into(start, dt, out)
     }
 }

@@ -31,7 +31,9 @@ pub mod simulate;
 pub mod spec;
 pub mod spring;
 
-pub use component::{Core, ForceComponent, Forces, Kinematics, OutputComponent, ParamSpec, Slot};
+pub use component::{
+    Core, FeatureKind, ForceComponent, Forces, Kinematics, OutputComponent, ParamSpec, Slot,
+};
 pub use composed::Model;
 pub use error::{ParamError, SimError, SpecError};
 pub use layout::{Block, Layout};

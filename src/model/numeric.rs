@@ -39,8 +39,8 @@
 
 use super::component::{ForceComponent, Forces, Kinematics};
 use super::error::SimError;
-use super::simulate::System;
-use super::spring::SpringBranch;
+use super::simulate::{PhaseKind, System};
+use super::spring::{Spring, SpringBranch};
 use crate::numeric::ode::{Dopri5, Stop};
 
 /// Most kinks one model may declare (the solver locates 16 events).
@@ -107,6 +107,35 @@ impl<'a> NumericSystem<'a> {
     /// Samples the acceleration at `t_i = start + i dt` (`start >= 0` s after
     /// release) into `out`.
     pub fn accel_grid_into(&self, start: f64, dt: f64, out: &mut [f64]) -> Result<(), SimError> {
+        let n = out.len();
+        self.grid(start, dt, n, |i, s| out[i] = s.a)
+    }
+
+    /// The motion at `t_i = start + i dt`, `n` samples: displacement,
+    /// velocity, acceleration and the spring's phase (what criticism needs
+    /// to place the reversals of a model solved numerically).
+    pub fn motion_grid(&self, start: f64, dt: f64, n: usize) -> Result<Vec<Motion>, SimError> {
+        let mut out = vec![
+            Motion {
+                u: 0.0,
+                v: 0.0,
+                a: 0.0,
+                phase: PhaseKind::Rest,
+            };
+            n
+        ];
+        self.grid(start, dt, n, |i, s| out[i] = s)?;
+        Ok(out)
+    }
+
+    /// Integrates and hands each grid sample to `emit`.
+    fn grid(
+        &self,
+        start: f64,
+        dt: f64,
+        n: usize,
+        mut emit: impl FnMut(usize, Motion),
+    ) -> Result<(), SimError> {
         if !(dt > 0.0 && dt.is_finite()) {
             return Err(SimError::Grid {
                 name: "dt",
@@ -115,7 +144,6 @@ impl<'a> NumericSystem<'a> {
             });
         }
         crate::model::simulate::check_start(start)?;
-        let n = out.len();
         if n == 0 {
             return Ok(());
         }
@@ -157,8 +185,16 @@ impl<'a> NumericSystem<'a> {
             }
             let Some(d) = dir else {
                 // At rest: the forces balance.
-                for a in out[next..].iter_mut() {
-                    *a = 0.0;
+                for i in next..n {
+                    emit(
+                        i,
+                        Motion {
+                            u,
+                            v: 0.0,
+                            a: 0.0,
+                            phase: PhaseKind::Rest,
+                        },
+                    );
                 }
                 return Ok(());
             };
@@ -189,7 +225,15 @@ impl<'a> NumericSystem<'a> {
                     if !a.is_finite() {
                         bad.get_or_insert(ti);
                     }
-                    out[next] = a;
+                    emit(
+                        next,
+                        Motion {
+                            u: y[0],
+                            v: y[1],
+                            a,
+                            phase: phase_of(sp, b),
+                        },
+                    );
                     next += 1;
                 }
             };
@@ -243,9 +287,40 @@ impl<'a> NumericSystem<'a> {
                 },
             )
             .accel();
-        for a in out[next..].iter_mut() {
-            *a = last;
+        for i in next..n {
+            emit(
+                i,
+                Motion {
+                    u,
+                    v,
+                    a: last,
+                    phase: phase_of(sp, branch),
+                },
+            );
         }
         Ok(())
+    }
+}
+
+/// One grid sample of a numerically solved motion.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Motion {
+    /// Displacement (m).
+    pub u: f64,
+    /// Velocity (m/s).
+    pub v: f64,
+    /// Acceleration (m/s^2).
+    pub a: f64,
+    /// What the spring is doing (as the closed form names it).
+    pub phase: PhaseKind,
+}
+
+/// The closed form's name of spring branch `b`.
+fn phase_of(sp: &Spring, b: SpringBranch) -> PhaseKind {
+    match sp.line(b).2 {
+        0 => PhaseKind::Elastic,
+        1 => PhaseKind::Plastic1,
+        2 => PhaseKind::Plastic2,
+        _ => PhaseKind::Plastic3,
     }
 }

@@ -25,7 +25,7 @@ use std::sync::Arc;
 use super::catalog::{
     AsymmetricFriction, CoreLaw, Degradation, FrictionDecay, Offset, VelocityFriction,
 };
-use super::component::{Core, ForceComponent, OutputComponent, Slot};
+use super::component::{Core, FeatureKind, ForceComponent, OutputComponent, Slot};
 use super::composed::Model;
 use super::error::SpecError;
 use super::spec::{DamperKind, FrictionKind, ModelSpec, SpringKind};
@@ -77,6 +77,8 @@ pub struct Candidate {
     pub start: Vec<f64>,
     /// What the component is, and which residual pattern it explains.
     pub signature: String,
+    /// The residual structure it explains (empty: serial correlation).
+    pub targets: Vec<FeatureKind>,
 }
 
 impl Default for Registry {
@@ -249,15 +251,16 @@ impl Registry {
                 Component::Output(o) => model.with_output(o.clone()),
             };
             let start = warm_start(model, theta, &extended, c);
-            let signature = match c {
-                Component::Force(f) => f.signature().to_string(),
-                Component::Output(o) => o.meaning().to_string(),
+            let (signature, targets) = match c {
+                Component::Force(f) => (f.signature().to_string(), f.targets()),
+                Component::Output(o) => (o.meaning().to_string(), o.targets()),
             };
             out.push(Candidate {
                 effect: c.name().to_string(),
                 model: extended,
                 start,
                 signature,
+                targets,
             });
         }
         out

@@ -6,7 +6,10 @@
 //! F_F(u, u') = (1 + a_F sign(u')) (F_F0 + k_F |u|) sign(u')
 //! ```
 //! Within a phase the direction is fixed, so the phase stays linear: the
-//! closed form solves it exactly. `a_F = 0` is the paper's slider.
+//! closed form solves it exactly. `a_F = 0` is the paper's slider. It is
+//! the paper's slider plus a constant force `a_F (F_F0 + k_F |u|)` while
+//! sliding: the jump at a reversal stays `2 (F_F0 + k_F |u|)`, and a
+//! shifted release displacement absorbs most of the constant force.
 //!
 //! ```
 //! use hbis::model::friction::Friction;
@@ -16,7 +19,7 @@
 //! ```
 
 use super::velocity_friction::invalid;
-use crate::model::component::{ForceComponent, ParamSpec, Slot};
+use crate::model::component::{FeatureKind, ForceComponent, ParamSpec, Slot};
 use crate::model::error::ParamError;
 use crate::model::simulate::System;
 
@@ -37,8 +40,14 @@ impl ForceComponent for AsymmetricFriction {
     fn meaning(&self) -> &str {
         "friction that differs with the direction of sliding: (1 + a_F sign(u')) F_F"
     }
+    fn targets(&self) -> Vec<FeatureKind> {
+        // (1 + a_F sign u') F_F sign u' = F_F sign u' + a_F F_F: a constant
+        // force while sliding; the jump at a reversal stays 2 F_F.
+        vec![FeatureKind::Offset]
+    }
+
     fn signature(&self) -> &str {
-        "friction different in the two directions: the acceleration jumps at reversals alternate in size, and the swings are not centred"
+        "friction different in the two directions: the paper's slider plus a constant force a_F F_F while sliding, so the swings are not centred and the residual's mean is not zero while the mass moves (the jumps at reversals, 2 F_F, do not change)"
     }
     fn requires(&self) -> Option<Slot> {
         Some(Slot::Friction)

@@ -1,7 +1,7 @@
 //! The paper's spring laws, friction laws and damper as components of the
 //! closed-form core (sections 5-6 of the paper; `docs/model.md`).
 
-use crate::model::component::{Core, ForceComponent, ParamSpec, Slot};
+use crate::model::component::{Core, FeatureKind, ForceComponent, ParamSpec, Slot};
 use crate::model::params::ParamName;
 use crate::model::spec::{DamperKind, FrictionKind, SpringKind};
 
@@ -69,6 +69,22 @@ impl ForceComponent for CoreLaw {
             }
             Core::Damper(DamperKind::Viscous) => "a linear viscous damper, c = 2 zeta0 w0 m",
             _ => "nothing",
+        }
+    }
+
+    fn targets(&self) -> Vec<FeatureKind> {
+        use FeatureKind::*;
+        match self.0 {
+            Core::Spring(_) => vec![PeriodAmplitude, PeriodDrift],
+            Core::Friction(FrictionKind::None) | Core::Damper(DamperKind::None) => Vec::new(),
+            Core::Friction(_) => vec![JumpSize, DecayRate],
+            // A damper's force is in phase with velocity; the fit of the
+            // friction absorbs most of the decay, and what is left shows
+            // as serial correlation over the half-period. Without it the
+            // fitted stiffness and friction compensate for the energy lost,
+            // which shifts the swings' timing as the amplitude decays: a
+            // period drift.
+            Core::Damper(_) => vec![DecayRate, Colour, PeriodDrift],
         }
     }
 

@@ -17,7 +17,7 @@
 //! ```
 
 use super::velocity_friction::invalid;
-use crate::model::component::{ForceComponent, Forces, Kinematics, ParamSpec};
+use crate::model::component::{FeatureKind, ForceComponent, Forces, Kinematics, ParamSpec};
 use crate::model::error::ParamError;
 
 /// Stiffness degradation with travel.
@@ -44,6 +44,10 @@ impl ForceComponent for Degradation {
     fn meaning(&self) -> &str {
         "rubber stiffness that falls with the distance travelled (scragging): F_S / (1 + kappa_k s)"
     }
+    fn targets(&self) -> Vec<FeatureKind> {
+        vec![FeatureKind::PeriodDrift, FeatureKind::DecayRate]
+    }
+
     fn signature(&self) -> &str {
         "a stiffness that softens during the test: the half-cycle periods lengthen from swing to swing beyond what the amplitude explains"
     }

@@ -16,7 +16,7 @@
 //! ```
 
 use super::velocity_friction::invalid;
-use crate::model::component::{ForceComponent, Forces, Kinematics, ParamSpec, Slot};
+use crate::model::component::{FeatureKind, ForceComponent, Forces, Kinematics, ParamSpec, Slot};
 use crate::model::error::ParamError;
 
 /// Friction decay with travel.
@@ -43,6 +43,10 @@ impl ForceComponent for FrictionDecay {
     fn meaning(&self) -> &str {
         "friction that falls with the distance travelled (the sliding surface heats up): F_F / (1 + kappa_F s)"
     }
+    fn targets(&self) -> Vec<FeatureKind> {
+        vec![FeatureKind::JumpSize, FeatureKind::DecayRate]
+    }
+
     fn signature(&self) -> &str {
         "friction that weakens during the test: the acceleration jumps at reversals shrink from cycle to cycle faster than the amplitude explains"
     }

@@ -5,7 +5,7 @@
 //! a_record = a + a_off
 //! ```
 
-use crate::model::component::{OutputComponent, ParamSpec};
+use crate::model::component::{FeatureKind, OutputComponent, ParamSpec};
 
 /// A constant accelerometer offset `a_off` (m/s^2) added to every sample.
 #[derive(Debug, Clone, Copy, Default)]
@@ -24,6 +24,10 @@ impl OutputComponent for Offset {
     fn meaning(&self) -> &str {
         "a constant accelerometer offset: the residual has a non-zero mean, also at rest"
     }
+    fn targets(&self) -> Vec<FeatureKind> {
+        vec![FeatureKind::Offset]
+    }
+
     fn apply(&self, theta: &[f64], _dt: f64, accel: &mut [f64]) {
         for a in accel.iter_mut() {
             *a += theta[0];

@@ -15,7 +15,7 @@
 //! assert!((VelocityFriction::factor(0.5, 0.02, 1.0) - 1.0).abs() < 1e-12);
 //! ```
 
-use crate::model::component::{ForceComponent, Forces, Kinematics, ParamSpec, Slot};
+use crate::model::component::{FeatureKind, ForceComponent, Forces, Kinematics, ParamSpec, Slot};
 use crate::model::error::ParamError;
 
 /// Constantinou's velocity dependence of the friction coefficient.
@@ -48,6 +48,10 @@ impl ForceComponent for VelocityFriction {
     fn meaning(&self) -> &str {
         "friction that drops at low velocity (Constantinou): phi(v) = 1 - (1 - r_mu) exp(-|v|/v_t)"
     }
+    fn targets(&self) -> Vec<FeatureKind> {
+        vec![FeatureKind::JumpSize, FeatureKind::DecayRate]
+    }
+
     fn signature(&self) -> &str {
         "friction that drops at low velocity (Constantinou): the acceleration right after each reversal, where the mass is slow, differs from the sliding value"
     }

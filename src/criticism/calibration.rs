@@ -1,0 +1,438 @@
+//! Calibration of criticism: how often the ladder adds an effect to a
+//! record that lacks one (a false discovery), and how often it ranks a
+//! hidden catalog effect first.
+//!
+//! - **Null records**: the truth is the start model,
+//!   `trilinear+lcfm+viscous`, at a random parameter set
+//!   ([`random_truth`]); with white noise of 1.5 % of the record's peak, or
+//!   with coloured sensor noise ([`sensor_noise`]).
+//! - **Hidden records**: the truth is a start model plus one catalog
+//!   component ([`HIDDEN`]), at a random parameter set and a random size of
+//!   the effect, with white noise of 1.5 % of the peak.
+//!
+//! Every record is criticised as `hbis diagnose --noise auto` does it: the
+//! noise model is chosen by BIC at the start model ([`choose_noise`]), then
+//! the candidates are refitted and ranked ([`diagnose_model`], the
+//! ladder's first step). A null record's outcome is a false discovery when
+//! a candidate is *accepted* (the ladder would add it); a hidden record's
+//! outcome is right when the hidden effect ranks first.
+//!
+//! Each record depends only on the study's seed and its index, so the
+//! result does not depend on the number of threads.
+
+use rand::rngs::StdRng;
+use rand::{RngExt, SeedableRng};
+use rand_distr::{Distribution, Normal};
+use rayon::prelude::*;
+use serde::Serialize;
+
+use thiserror::Error;
+
+use super::ranking::{choose_noise, diagnose_model, CriticismError};
+use crate::data::{Aligned, Record, RecordError};
+use crate::inference::{MapSettings, Noise};
+use crate::model::{
+    ForwardModel, Model, ParamError, ParamName, Params, Registry, SimError, SpecError,
+};
+
+/// Why a calibration record could not be made or criticised.
+#[derive(Debug, Error)]
+pub enum CalibrationError {
+    /// A model of [`HIDDEN`] is not in the registry.
+    #[error("calibration model")]
+    Spec(#[from] SpecError),
+    /// A drawn parameter set is invalid.
+    #[error("calibration parameters")]
+    Param(#[from] ParamError),
+    /// The truth could not be simulated.
+    #[error("simulating a calibration record")]
+    Sim(#[from] SimError),
+    /// The record was refused.
+    #[error("calibration record")]
+    Record(#[from] RecordError),
+    /// The criticism failed.
+    #[error(transparent)]
+    Criticism(#[from] CriticismError),
+}
+
+/// Record length and sampling of every calibration record: 10 s at 200 Hz.
+const DT: f64 = 0.005;
+/// See [`DT`].
+const N: usize = 2001;
+/// Noise sd as a fraction of the record's peak |a|.
+pub const NOISE: f64 = 0.015;
+
+/// A hidden catalog effect: the start model, the truth (the start model
+/// plus the effect) and how its size is drawn.
+pub struct Hidden {
+    /// The candidate's name, as the ranking reports it.
+    pub effect: &'static str,
+    /// The model criticism starts from.
+    pub start: &'static str,
+    /// The model that makes the record.
+    pub truth: &'static str,
+    /// The effect's parameters (for core laws: the paper's, set on the
+    /// random parameter set).
+    pub draw: fn(&mut StdRng, &mut Params) -> Vec<(&'static str, f64)>,
+    /// Table 8.1 columns the parameter set is drawn around.
+    pub columns: &'static [u32],
+}
+
+fn either_sign(rng: &mut StdRng, lo: f64, hi: f64) -> f64 {
+    let v: f64 = rng.random_range(lo..hi);
+    if rng.random_bool(0.5) {
+        v
+    } else {
+        -v
+    }
+}
+
+/// The hidden effects, one a kind: the five catalog components added to
+/// the paper's model and the paper's three upgrades (a third stiffness
+/// branch, friction growing with amplitude, a damper), each with a size
+/// that changes the record by more than its noise.
+pub const HIDDEN: [Hidden; 8] = [
+    Hidden {
+        effect: "velocity-friction",
+        start: "trilinear+lcfm+viscous",
+        truth: "trilinear+lcfm+viscous+velocity-friction",
+        draw: |rng, _| {
+            vec![
+                ("r_mu", rng.random_range(0.2..0.5)),
+                ("v_t", rng.random_range(0.02..0.08)),
+            ]
+        },
+        columns: &[3, 5, 6, 7, 8],
+    },
+    Hidden {
+        effect: "offset",
+        start: "trilinear+lcfm+viscous",
+        truth: "trilinear+lcfm+viscous+offset",
+        draw: |rng, _| vec![("a_off", either_sign(rng, 0.01, 0.03))],
+        columns: &[3, 5, 6, 7, 8],
+    },
+    Hidden {
+        effect: "degradation",
+        start: "trilinear+lcfm+viscous",
+        truth: "trilinear+lcfm+viscous+degradation",
+        draw: |rng, _| vec![("kappa_k", rng.random_range(0.15..0.4))],
+        columns: &[3, 5, 6, 7, 8],
+    },
+    Hidden {
+        effect: "asymmetric-friction",
+        start: "trilinear+lcfm+viscous",
+        truth: "trilinear+lcfm+viscous+asymmetric-friction",
+        // A constant force while sliding, which a shifted release absorbs
+        // (docs/components.md): it shows only where friction is strong.
+        draw: |rng, _| vec![("a_F", either_sign(rng, 0.45, 0.6))],
+        columns: &[7, 8],
+    },
+    Hidden {
+        effect: "friction-decay",
+        start: "trilinear+lcfm+viscous",
+        truth: "trilinear+lcfm+viscous+friction-decay",
+        draw: |rng, _| vec![("kappa_F", rng.random_range(1.5..3.0))],
+        columns: &[3, 5, 6, 7, 8],
+    },
+    Hidden {
+        effect: "trilinear",
+        start: "bilinear+lcfm+viscous",
+        truth: "trilinear+lcfm+viscous",
+        draw: |_, _| Vec::new(),
+        columns: &[3, 5, 6, 7, 8],
+    },
+    Hidden {
+        effect: "lcfm",
+        start: "trilinear+coulomb+viscous",
+        truth: "trilinear+lcfm+viscous",
+        draw: |rng, p| {
+            p.rf0 = either_sign(rng, 0.01, 0.03);
+            Vec::new()
+        },
+        columns: &[3, 5, 6, 7, 8],
+    },
+    Hidden {
+        effect: "viscous",
+        start: "trilinear+lcfm",
+        truth: "trilinear+lcfm+viscous",
+        draw: |_, _| Vec::new(),
+        columns: &[3, 5, 6, 7, 8],
+    },
+];
+
+/// A random parameter set around a Table 8.1 column: every parameter
+/// times a factor in [0.75, 1.25], `u3` kept below `0.8 u0` (the release
+/// reaches the third branch) and above `1.5 uy`.
+pub fn random_truth(rng: &mut StdRng, columns: &[u32]) -> Params {
+    let col = columns[rng.random_range(0..columns.len())];
+    let mut p = Params::table_8_1(col).expect("a Table 8.1 column");
+    for name in ParamName::ALL {
+        let v = p.get(name) * rng.random_range(0.75..1.25);
+        p.set(name, v);
+    }
+    p.u3 = p.u3.min(0.8 * p.u0).max(1.5 * p.uy);
+    p
+}
+
+/// Coloured, filtered and quantised sensor noise added to `clean`: AR(1)
+/// noise (`phi` 0.5) through a second-order Butterworth low-pass at 40 Hz
+/// (the sensor's anti-alias filter), scaled to an sd of [`NOISE`] times
+/// the peak, and the sum quantised to steps of a quarter of that sd.
+pub fn sensor_noise(clean: &[f64], dt: f64, rng: &mut StdRng) -> Vec<f64> {
+    let unit = Normal::new(0.0, 1.0).expect("unit normal");
+    let mut e = 0.0;
+    let ar: Vec<f64> = clean
+        .iter()
+        .map(|_| {
+            e = 0.5 * e + unit.sample(rng);
+            e
+        })
+        .collect();
+    let filtered = low_pass(&ar, 40.0, dt);
+    let sd = (filtered.iter().map(|v| v * v).sum::<f64>() / filtered.len() as f64).sqrt();
+    let peak = clean.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    let (sigma, step) = (NOISE * peak, 0.25 * NOISE * peak);
+    clean
+        .iter()
+        .zip(&filtered)
+        .map(|(c, f)| ((c + sigma * f / sd) / step).round() * step)
+        .collect()
+}
+
+/// A second-order Butterworth low-pass (bilinear transform, corner
+/// pre-warped), run forward from rest.
+///
+/// # Formula
+/// ```text
+/// K = tan(pi fc dt),  norm = 1 / (1 + sqrt2 K + K^2)
+/// b = (K^2, 2 K^2, K^2) norm,  a1 = 2 (K^2 - 1) norm,  a2 = (1 - sqrt2 K + K^2) norm
+/// ```
+/// ```
+/// use hbis::criticism::calibration::low_pass;
+/// // A constant passes unchanged once the filter has settled.
+/// let y = low_pass(&[1.0; 400], 40.0, 0.005);
+/// assert!((y[399] - 1.0).abs() < 1e-9);
+/// // The Nyquist frequency (alternating signs) is removed.
+/// let alt: Vec<f64> = (0..400).map(|i| if i % 2 == 0 { 1.0 } else { -1.0 }).collect();
+/// assert!(low_pass(&alt, 40.0, 0.005)[399].abs() < 1e-9);
+/// ```
+pub fn low_pass(x: &[f64], fc: f64, dt: f64) -> Vec<f64> {
+    let k = (std::f64::consts::PI * fc * dt).tan();
+    let s2 = std::f64::consts::SQRT_2;
+    let norm = 1.0 / (1.0 + s2 * k + k * k);
+    let (b0, b1, b2) = (k * k * norm, 2.0 * k * k * norm, k * k * norm);
+    let (a1, a2) = (2.0 * (k * k - 1.0) * norm, (1.0 - s2 * k + k * k) * norm);
+    let (mut x1, mut x2, mut y1, mut y2) = (0.0, 0.0, 0.0, 0.0);
+    x.iter()
+        .map(|&v| {
+            let y = b0 * v + b1 * x1 + b2 * x2 - a1 * y1 - a2 * y2;
+            (x2, x1, y2, y1) = (x1, v, y1, y);
+            y
+        })
+        .collect()
+}
+
+/// What a calibration record is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Kind {
+    /// The start model, white noise.
+    NullWhite,
+    /// The start model, coloured sensor noise.
+    NullColoured,
+    /// One hidden effect (index into [`HIDDEN`]).
+    Hidden(usize),
+}
+
+/// The criticism of one calibration record.
+#[derive(Debug, Clone, Serialize)]
+pub struct Outcome {
+    /// What the record is.
+    pub kind: Kind,
+    /// Its seed.
+    pub seed: u64,
+    /// The effect hidden in it (`None` for a null record).
+    pub hidden: Option<String>,
+    /// The hidden effect's parameters (name, value).
+    pub hidden_values: Vec<(String, f64)>,
+    /// The noise model `--noise auto` chose.
+    pub noise: Noise,
+    /// The best candidate by BIC.
+    pub first: Option<String>,
+    /// Its BIC change.
+    pub first_delta_bic: f64,
+    /// The candidate the ladder would add (the best accepted one).
+    pub accepted: Option<String>,
+    /// Its reason, or the best candidate's when none is accepted.
+    pub reason: String,
+}
+
+impl Outcome {
+    /// A null record to which the ladder would add an effect.
+    pub fn false_discovery(&self) -> bool {
+        self.hidden.is_none() && self.accepted.is_some()
+    }
+    /// A hidden effect ranked first.
+    pub fn found(&self) -> bool {
+        self.hidden.is_some() && self.first == self.hidden
+    }
+}
+
+/// A calibration record: the start model, the record, and the hidden
+/// effect's values (name, value).
+pub type MadeRecord = (Model, Aligned, Vec<(String, f64)>);
+
+/// The record of `kind` with seed `seed`: the start model, the record and
+/// the hidden effect's values.
+pub fn make_record(
+    registry: &Registry,
+    kind: Kind,
+    seed: u64,
+) -> Result<MadeRecord, CalibrationError> {
+    let mut rng = StdRng::seed_from_u64(seed);
+    let (start, truth_model, p, values) = match kind {
+        Kind::NullWhite | Kind::NullColoured => {
+            let m = registry.parse("trilinear+lcfm+viscous")?;
+            let p = random_truth(&mut rng, &[3, 5, 6, 7, 8]);
+            (m.clone(), m, p, Vec::new())
+        }
+        Kind::Hidden(k) => {
+            let h = &HIDDEN[k];
+            let mut p = random_truth(&mut rng, h.columns);
+            let values = (h.draw)(&mut rng, &mut p);
+            (
+                registry.parse(h.start)?,
+                registry.parse(h.truth)?,
+                p,
+                values,
+            )
+        }
+    };
+    let theta = truth_model.theta_from_params(&p, &values)?;
+    let mut clean = vec![0.0; N];
+    truth_model.accel_into(&theta, DT, &mut clean)?;
+    let a = if kind == Kind::NullColoured {
+        sensor_noise(&clean, DT, &mut rng)
+    } else {
+        let peak = clean.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        let normal = Normal::new(0.0, NOISE * peak).expect("positive sd");
+        clean.iter().map(|c| c + normal.sample(&mut rng)).collect()
+    };
+    let t = (0..N).map(|i| i as f64 * DT).collect();
+    let data = Record::new(t, a)?.aligned(None)?;
+    let values = values.iter().map(|(n, v)| (n.to_string(), *v)).collect();
+    Ok((start, data, values))
+}
+
+/// Criticises one record as `hbis diagnose --noise auto` does.
+pub fn criticise(registry: &Registry, kind: Kind, seed: u64) -> Result<Outcome, CalibrationError> {
+    let (start, data, hidden_values) = make_record(registry, kind, seed)?;
+    let settings = MapSettings::default();
+    let noise = choose_noise(&start, &data, &settings, seed ^ 0x0A17_0015)?.chosen;
+    let (_, _, ranked) = diagnose_model(registry, &start, &data, noise, &settings, seed)?;
+    let accepted = ranked.iter().find(|c| c.accepted);
+    let reason = accepted
+        .or(ranked.first())
+        .map_or(String::new(), |c| c.reason.clone());
+    Ok(Outcome {
+        kind,
+        seed,
+        hidden: match kind {
+            Kind::Hidden(k) => Some(HIDDEN[k].effect.to_string()),
+            _ => None,
+        },
+        hidden_values,
+        noise,
+        first: ranked.first().map(|c| c.effect.clone()),
+        first_delta_bic: ranked.first().map_or(0.0, |c| c.delta_bic),
+        accepted: accepted.map(|c| c.effect.clone()),
+        reason,
+    })
+}
+
+/// The records of the standard study: `nulls` null records of each noise
+/// kind, then `per_effect` records of each hidden effect.
+pub fn standard(nulls: usize, per_effect: usize) -> Vec<Kind> {
+    let mut kinds = Vec::new();
+    for _ in 0..nulls {
+        kinds.push(Kind::NullWhite);
+        kinds.push(Kind::NullColoured);
+    }
+    for k in 0..HIDDEN.len() {
+        kinds.extend(std::iter::repeat_n(Kind::Hidden(k), per_effect));
+    }
+    kinds
+}
+
+/// Criticises the records `kinds`, the `i`-th with seed
+/// `seed * 1000003 + i`, in parallel; `on_done` is called as each
+/// finishes (for progress). The outcomes come back in the order of `kinds`.
+pub fn study(
+    registry: &Registry,
+    kinds: &[Kind],
+    seed: u64,
+    on_done: &(dyn Fn(&Outcome) + Sync),
+) -> Result<Vec<Outcome>, CalibrationError> {
+    let jobs: Vec<(Kind, u64)> = kinds
+        .iter()
+        .enumerate()
+        .map(|(i, &k)| (k, seed.wrapping_mul(1_000_003).wrapping_add(i as u64)))
+        .collect();
+    jobs.into_par_iter()
+        .map(|(k, s)| {
+            let o = criticise(registry, k, s)?;
+            on_done(&o);
+            Ok(o)
+        })
+        .collect()
+}
+
+/// The table of a study: false discoveries by noise kind, hidden effects
+/// ranked first and accepted by effect.
+pub fn table(outcomes: &[Outcome]) -> String {
+    let mut out = String::from("records                  n  first  accepted  false discoveries\n");
+    for (label, kind) in [
+        ("null, white noise", Kind::NullWhite),
+        ("null, sensor noise", Kind::NullColoured),
+    ] {
+        let g: Vec<&Outcome> = outcomes.iter().filter(|o| o.kind == kind).collect();
+        let ar1 = g.iter().filter(|o| o.noise == Noise::Ar1).count();
+        out.push_str(&format!(
+            "{label:22} {:>3}      -         -  {:>3}   (AR(1) chosen in {ar1})\n",
+            g.len(),
+            g.iter().filter(|o| o.false_discovery()).count()
+        ));
+    }
+    for (k, h) in HIDDEN.iter().enumerate() {
+        let g: Vec<&Outcome> = outcomes
+            .iter()
+            .filter(|o| o.kind == Kind::Hidden(k))
+            .collect();
+        if g.is_empty() {
+            continue;
+        }
+        out.push_str(&format!(
+            "hidden {:15} {:>3}    {:>3}       {:>3}\n",
+            h.effect,
+            g.len(),
+            g.iter().filter(|o| o.found()).count(),
+            g.iter()
+                .filter(|o| o.accepted.as_deref() == Some(h.effect))
+                .count()
+        ));
+    }
+    let hidden: Vec<&Outcome> = outcomes.iter().filter(|o| o.hidden.is_some()).collect();
+    let nulls: Vec<&Outcome> = outcomes.iter().filter(|o| o.hidden.is_none()).collect();
+    out.push_str(&format!(
+        "all null records: {} of {} with an effect added; all hidden: {} of {} ranked first, {} accepted\n",
+        nulls.iter().filter(|o| o.false_discovery()).count(),
+        nulls.len(),
+        hidden.iter().filter(|o| o.found()).count(),
+        hidden.len(),
+        hidden
+            .iter()
+            .filter(|o| o.accepted.is_some() && o.accepted == o.hidden)
+            .count()
+    ));
+    out
+}
