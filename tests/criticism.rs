@@ -240,6 +240,7 @@ fn a_degrading_stiffness_outside_the_catalog_is_reported_not_absorbed() {
     )
     .unwrap();
     let last = steps.last().unwrap();
+    eprintln!("conclusion: {}", last.conclusion);
     assert_eq!(steps.len(), 1, "added {:?}", last.added);
     assert!(
         last.conclusion

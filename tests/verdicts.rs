@@ -221,3 +221,46 @@ fn noise_colour_explained_by_ar1() {
         white.verdict
     );
 }
+
+/// A wrong spring law with the right friction (`bilinear` fitted to a
+/// trilinear record): the jumps, measured between lines fitted on either
+/// side of each reversal, do not blame the friction (the old three-sample
+/// means called them 57 % smaller, "friction smaller"), and the periods
+/// say what is wrong.
+#[test]
+fn a_wrong_spring_is_not_blamed_on_friction() {
+    use hbis::criticism::{diagnosis_of, fit_model};
+    use hbis::inference::{MapSettings, Noise};
+    let truth = clean("trilinear+lcfm+viscous", &[], 1.0);
+    let t = (0..N).map(|i| i as f64 * DT).collect();
+    let data = hbis::data::Record::new(t, noisy(truth, 8))
+        .unwrap()
+        .aligned(None)
+        .unwrap();
+    let wrong = Model::parse("bilinear+lcfm+viscous").unwrap();
+    let fit = fit_model(
+        &wrong,
+        &data,
+        Noise::White,
+        None,
+        &MapSettings::default(),
+        2,
+    )
+    .unwrap();
+    let d = diagnosis_of(&wrong, &fit, &data).unwrap();
+    let jumps = feature(&d, FeatureKind::JumpSize);
+    assert!(!jumps.significant, "{jumps:?}\n{}", d.verdict);
+    assert!(
+        !d.verdict.contains("friction force at reversals"),
+        "{}",
+        d.verdict
+    );
+    assert!(
+        significant(&d)
+            .iter()
+            .any(|k| matches!(k, FeatureKind::PeriodAmplitude | FeatureKind::PeriodDrift)),
+        "{:?}\n{}",
+        significant(&d),
+        d.verdict
+    );
+}

@@ -161,8 +161,9 @@ pub const HIDDEN: [Hidden; 8] = [
 ];
 
 /// A random parameter set around a Table 8.1 column: every parameter
-/// times a factor in [0.75, 1.25], `u3` kept below `0.8 u0` (the release
-/// reaches the third branch) and above `1.5 uy`.
+/// times a factor in [0.75, 1.25], `f1` and `f2` kept below `0.95 f0` (the spring
+/// softens after yield), `u3` below `0.8 u0` (the release reaches the third
+/// branch) and above `1.5 uy`.
 pub fn random_truth(rng: &mut StdRng, columns: &[u32]) -> Params {
     let col = columns[rng.random_range(0..columns.len())];
     let mut p = Params::table_8_1(col).expect("a Table 8.1 column");
@@ -170,6 +171,8 @@ pub fn random_truth(rng: &mut StdRng, columns: &[u32]) -> Params {
         let v = p.get(name) * rng.random_range(0.75..1.25);
         p.set(name, v);
     }
+    p.f1 = p.f1.min(0.95 * p.f0);
+    p.f2 = p.f2.min(0.95 * p.f0);
     p.u3 = p.u3.min(0.8 * p.u0).max(1.5 * p.uy);
     p
 }
@@ -390,7 +393,8 @@ pub fn study(
 /// The table of a study: false discoveries by noise kind, hidden effects
 /// ranked first and accepted by effect.
 pub fn table(outcomes: &[Outcome]) -> String {
-    let mut out = String::from("records                  n  first  accepted  false discoveries\n");
+    let mut out =
+        String::from("records                       n  first  accepted  false discoveries\n");
     for (label, kind) in [
         ("null, white noise", Kind::NullWhite),
         ("null, sensor noise", Kind::NullColoured),
@@ -398,7 +402,7 @@ pub fn table(outcomes: &[Outcome]) -> String {
         let g: Vec<&Outcome> = outcomes.iter().filter(|o| o.kind == kind).collect();
         let ar1 = g.iter().filter(|o| o.noise == Noise::Ar1).count();
         out.push_str(&format!(
-            "{label:22} {:>3}      -         -  {:>3}   (AR(1) chosen in {ar1})\n",
+            "{label:27} {:>3}      -         -  {:>3}   (AR(1) chosen in {ar1})\n",
             g.len(),
             g.iter().filter(|o| o.false_discovery()).count()
         ));
@@ -412,7 +416,7 @@ pub fn table(outcomes: &[Outcome]) -> String {
             continue;
         }
         out.push_str(&format!(
-            "hidden {:15} {:>3}    {:>3}       {:>3}\n",
+            "hidden {:20} {:>3}    {:>3}       {:>3}\n",
             h.effect,
             g.len(),
             g.iter().filter(|o| o.found()).count(),

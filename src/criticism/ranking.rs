@@ -113,21 +113,12 @@ pub struct RankedCandidate {
     pub score: f64,
     /// `e2` after the refit.
     pub e2: f64,
-    /// Change of the maximised log-likelihood (as the likelihood says).
+    /// Change of the maximised log-likelihood.
     pub delta_log_likelihood: f64,
-    /// The refit residual's dispersion ([`Diagnostics::dispersion`]): the
-    /// likelihood differences below are divided by it.
-    pub dispersion: f64,
-    /// Change of BIC (negative: better), the log-likelihood change divided
-    /// by `dispersion`.
+    /// Change of BIC (negative: better).
     pub delta_bic: f64,
-    /// Change of BIC as the likelihood says.
-    pub delta_bic_raw: f64,
-    /// Change of the Laplace log-evidence, its log-likelihood part divided
-    /// by `dispersion`.
+    /// Change of the Laplace log-evidence.
     pub delta_log_evidence: f64,
-    /// Change of the Laplace log-evidence as the likelihood says.
-    pub delta_log_evidence_raw: f64,
     /// Whether it pays for its parameters (BIC lower by more than 10).
     pub supported: bool,
     /// The residual pattern it explains.
@@ -146,8 +137,14 @@ pub struct RankedCandidate {
     /// profile-likelihood ratio against the refitted current model as a
     /// normal quantile ([`profile_z`]).
     pub moved_z: f64,
-    /// Whether that is beyond [`MOVED_Z`] (the 99 % profile interval
-    /// excludes the neutral values).
+    /// The largest distance of its own parameters from their neutral
+    /// values in units of their physical scale
+    /// ([`crate::model::ParamSpec::scale`]),
+    /// over the parameters whose neutral value switches the effect off
+    /// (not the spring's shape); `None` when it has none.
+    pub physical_size: Option<f64>,
+    /// Whether `moved_z` is beyond [`MOVED_Z`] (the 99 % profile interval
+    /// excludes the neutral values) and `physical_size` at least 1.
     pub moved: bool,
     /// The targeted feature's magnitude before (current model) and after
     /// (refit), for the target that shrank most.
@@ -500,7 +497,7 @@ pub fn rank_candidates(
         };
         let (refit, n_starts, agreeing) =
             multi_start(&c, starts(&c, &new, spread), data, noise, budget, &mut rng)?;
-        refits.push((c, score, refit, n_starts, agreeing, new.len()));
+        refits.push((c, score, refit, n_starts, agreeing, new));
     }
     // A candidate must not look supported because its refit found a better
     // basin of the parameters the current model has too.
@@ -529,25 +526,20 @@ pub fn rank_candidates(
         None => None,
     };
     let mut out = Vec::new();
-    for (c, score, refit, n_starts, agreeing, n_new) in refits {
+    for (c, score, refit, n_starts, agreeing, new) in refits {
+        let physical_size = physical_size(&c.model, &refit.theta, &new);
         let (fit, before) = match (&numeric_baseline, &features_numeric) {
             (Some(b), Some(f)) if !c.model.closed_form() => (b, f),
             _ => (fit, &features_now),
         };
-        let after = diagnosis_of(&c.model, &refit, data)?;
-        // Serial correlation the noise model leaves makes the likelihood
-        // overstate every difference: divided by the refit residual's
-        // dispersion (1 when it is white, so a true effect keeps its full
-        // weight).
-        let dispersion = after.dispersion;
-        let raw_ll = refit.log_likelihood - fit.log_likelihood;
-        let delta_ll = raw_ll / dispersion;
-        let delta_bic_raw = refit.bic - fit.bic;
-        let delta_bic = delta_bic_raw + 2.0 * (raw_ll - delta_ll);
-        let delta_log_evidence_raw = refit.log_evidence - fit.log_evidence;
-        let delta_log_evidence = delta_log_evidence_raw - (raw_ll - delta_ll);
-        let moved_z = profile_z(delta_ll, n_new);
-        let after = after.features;
+        let delta_bic = refit.bic - fit.bic;
+        let delta_log_evidence = refit.log_evidence - fit.log_evidence;
+        let moved_z = profile_z(refit.log_likelihood - fit.log_likelihood, new.len());
+        let after = diagnosis_of(&c.model, &refit, data)?.features;
+        // A component that declares no structure is judged on the serial
+        // correlation. (Every candidate judged on it too let
+        // `velocity-friction` in on a record whose stiffness degrades:
+        // it whitens some of what it does not explain.)
         let targets = if c.targets.is_empty() {
             vec![FeatureKind::Colour]
         } else {
@@ -556,6 +548,7 @@ pub fn rank_candidates(
         let (target_before, target_after) = shrink_of(&targets, before, &after);
         let stands_in = absorbed(&targets, before, &after);
         let gate = Gate {
+            physical_size,
             stands_in,
             delta_bic,
             delta_log_evidence,
@@ -568,6 +561,7 @@ pub fn rank_candidates(
             evidence_supports: gate.evidence(),
             moved_z,
             moved: gate.moved(),
+            physical_size,
             target_before,
             target_after,
             shrinks: gate.shrinks(),
@@ -577,12 +571,9 @@ pub fn rank_candidates(
             model: refit.model.clone(),
             score,
             e2: refit.e2,
-            delta_log_likelihood: raw_ll,
-            dispersion,
+            delta_log_likelihood: refit.log_likelihood - fit.log_likelihood,
             delta_bic,
-            delta_bic_raw,
             delta_log_evidence,
-            delta_log_evidence_raw,
             supported: delta_bic < -SUPPORT,
             signature: c.signature.clone(),
             starts: n_starts,
@@ -631,6 +622,22 @@ pub fn profile_z(delta_log_likelihood: f64, k: usize) -> f64 {
     Normal::standard()
         .inverse_cdf(1.0 - 0.5 * tail.min(1.0))
         .max(0.0)
+}
+
+/// The largest `|theta_i - neutral_i| / scale_i` over the new parameters
+/// `new` of `model` whose neutral value switches their effect off (the
+/// spring's shape parameters have none).
+fn physical_size(model: &Model, theta: &[f64], new: &[usize]) -> Option<f64> {
+    use crate::model::ParamName::{Uy, F0, F1, F2, U0, U3};
+    let shape = [U0, Uy, F0, F1, F2, U3].map(|p| p.as_str());
+    let names = model.param_names();
+    new.iter()
+        .filter(|&&i| !shape.contains(&names[i].as_str()))
+        .filter_map(|&i| {
+            let spec = model.layout().spec(&names[i])?;
+            Some((theta[i] - spec.neutral).abs() / spec.scale)
+        })
+        .reduce(f64::max)
 }
 
 /// A specific structure (period, offset, spectral peak) that the
@@ -687,14 +694,20 @@ fn shrink_of(targets: &[FeatureKind], before: &[Feature], after: &[Feature]) -> 
 ///
 /// ```
 /// use hbis::criticism::ranking::Gate;
-/// let g = Gate { stands_in: None, delta_bic: -40.0, delta_log_evidence: 12.0, moved_z: 6.0, target_before: 3.0, target_after: 1.0 };
+/// let g = Gate { physical_size: Some(4.0), stands_in: None, delta_bic: -40.0, delta_log_evidence: 12.0, moved_z: 6.0, target_before: 3.0, target_after: 1.0 };
 /// assert!(g.accepted());
 /// // A parameter that stays at its neutral value: not added.
 /// let g = Gate { moved_z: 1.2, ..g.clone() };
 /// assert!(!g.accepted() && g.reason(&[]).contains("1.2 (profile z)"));
+/// // One that moves less than its physical scale: not added either.
+/// let g = Gate { moved_z: 9.0, physical_size: Some(0.04), ..g.clone() };
+/// assert!(!g.accepted() && g.reason(&[]).contains("0.04 of their physical scale"));
 /// ```
 #[derive(Debug, Clone)]
 pub struct Gate {
+    /// Its parameters' distance from neutral in physical scales
+    /// ([`RankedCandidate::physical_size`]).
+    pub physical_size: Option<f64>,
     /// Set when it removes a structure it does not target: a period, offset or spectral structure gone while the residual stays coloured.
     pub stands_in: Option<String>,
     /// Change of BIC.
@@ -720,7 +733,7 @@ impl Gate {
     }
     /// A parameter beyond [`MOVED_Z`] sds from neutral.
     pub fn moved(&self) -> bool {
-        self.moved_z > MOVED_Z
+        self.moved_z > MOVED_Z && self.physical_size.is_none_or(|s| s >= 1.0)
     }
     /// The targeted feature at most [`SHRINK`] of its value.
     pub fn shrinks(&self) -> bool {
@@ -750,10 +763,15 @@ impl Gate {
                 self.delta_log_evidence
             ));
         }
-        if !self.moved() {
+        if self.moved_z <= MOVED_Z {
             why.push(format!(
                 "its parameters are {:.1} (profile z) from their neutral values, not beyond {MOVED_Z}",
                 self.moved_z
+            ));
+        }
+        if let Some(size) = self.physical_size.filter(|&s| s < 1.0) {
+            why.push(format!(
+                "its parameters move {size:.2} of their physical scale from neutral, less than one: an effect too small to matter, which lets the fit move reversals across sample instants"
             ));
         }
         if !self.shrinks() && self.target_before.is_nan() {
@@ -805,7 +823,7 @@ pub struct Ranking {
 fn improve_baseline(
     current: &Model,
     base: &mut ModelFit,
-    refits: &[(Candidate, f64, ModelFit, usize, usize, usize)],
+    refits: &[(Candidate, f64, ModelFit, usize, usize, Vec<usize>)],
     data: &Aligned,
     budget: &MapSettings,
     seed: u64,

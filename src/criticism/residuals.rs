@@ -141,11 +141,6 @@ pub struct Diagnostics {
     /// The fitted AR(1) coefficient the residual was whitened with before
     /// judging its whiteness (`e_i - rho e_(i-1)`); `None` for white noise.
     pub whitened_rho: Option<f64>,
-    /// How much the serial correlation left in the (whitened) residual
-    /// inflates the variance of a sum of it: its long-run variance over its
-    /// variance ([`dispersion`]), at least 1. A likelihood that takes the
-    /// samples as independent overstates every difference by this factor.
-    pub dispersion: f64,
     /// Dominant residual frequency (Hz), as in `spectrum`.
     pub dominant_frequency_hz: f64,
     /// The spectrum.
@@ -317,18 +312,7 @@ pub fn diagnose(
     // Whiteness, of the residual whitened by the fitted noise model: colour
     // that the noise model explains is not a missing effect.
     let lag1_raw = autocorrelation(&r, 1);
-    let w: Vec<f64> = match whiten {
-        Some(rho) => (0..n)
-            .map(|i| {
-                if i == 0 {
-                    (1.0 - rho * rho).max(0.0).sqrt() * r[0]
-                } else {
-                    r[i] - rho * r[i - 1]
-                }
-            })
-            .collect(),
-        None => r.clone(),
-    };
+    let w = self::whiten(&r, whiten);
     let h = 20usize.min(n / 4);
     let q = n as f64
         * (n as f64 + 2.0)
@@ -339,7 +323,6 @@ pub fn diagnose(
         .map(|c| 1.0 - c.cdf(q))
         .unwrap_or(f64::NAN);
     let lag1 = autocorrelation(&w, 1);
-    let dispersion = dispersion(&w);
     // Spectrum (Hann window, periodogram).
     let size = n.next_power_of_two();
     let mut buf: Vec<rustfft::num_complex::Complex<f64>> = (0..size)
@@ -444,7 +427,6 @@ pub fn diagnose(
         lag1,
         lag1_raw,
         whitened_rho: whiten,
-        dispersion,
         dominant_frequency_hz: spectrum.dominant_frequency_hz,
         spectrum,
         map_u_edges: ue,
@@ -499,35 +481,21 @@ fn line_at(a: &[f64], range: std::ops::RangeInclusive<usize>, i: usize) -> f64 {
     my - b * mx
 }
 
-/// The long-run variance of `w` over its variance, with Bartlett weights
-/// up to the Newey-West lag, floored at 1 (a likelihood is never made
-/// stronger than it says).
-///
-/// # Formula
-/// ```text
-/// c = 1 + 2 sum_(k=1..K) (1 - k/(K+1)) rho_k,  K = floor(4 (n/100)^(2/9))
-/// ```
-/// ```
-/// use hbis::criticism::residuals::dispersion;
-/// use rand::{rngs::StdRng, SeedableRng};
-/// use rand_distr::{Distribution, StandardNormal};
-/// let mut rng = StdRng::seed_from_u64(1);
-/// let e: Vec<f64> = (0..4001).map(|_| StandardNormal.sample(&mut rng)).collect();
-/// // White noise: 1.
-/// assert!(dispersion(&e) < 1.1);
-/// // A moving sum of two: lag-one correlation 1/2, K = 9 at n = 4000,
-/// // c = 1 + 2 (1 - 1/10) / 2 = 1.9 (sd of the estimate about 0.06).
-/// let w: Vec<f64> = e.windows(2).map(|p| p[0] + p[1]).collect();
-/// assert!((dispersion(&w) - 1.9).abs() < 0.15, "{}", dispersion(&w));
-/// ```
-pub fn dispersion(w: &[f64]) -> f64 {
-    let n = w.len();
-    let lags = (4.0 * (n as f64 / 100.0).powf(2.0 / 9.0)).floor() as usize;
-    let lags = lags.min(n / 4);
-    let sum: f64 = (1..=lags)
-        .map(|k| (1.0 - k as f64 / (lags + 1) as f64) * autocorrelation(w, k))
-        .sum();
-    (1.0 + 2.0 * sum).max(1.0)
+/// `e_i - rho e_(i-1)` (the first scaled by `sqrt(1 - rho^2)`): the
+/// residual of AR(1) noise made white; `e` itself without `rho`.
+pub fn whiten(e: &[f64], rho: Option<f64>) -> Vec<f64> {
+    match rho {
+        Some(rho) => (0..e.len())
+            .map(|i| {
+                if i == 0 {
+                    (1.0 - rho * rho).max(0.0).sqrt() * e[0]
+                } else {
+                    e[i] - rho * e[i - 1]
+                }
+            })
+            .collect(),
+        None => e.to_vec(),
+    }
 }
 
 /// Lag-`k` autocorrelation of `x` about its mean.

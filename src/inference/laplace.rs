@@ -11,24 +11,26 @@
 //! (Beck & Yuen 2004). The steps `h_j` are [`STEP`] standard deviations
 //! along each axis ([`axis_scales`]). The likelihood is only piecewise
 //! smooth (a reversal crossing a sample instant moves one sample across a
-//! friction jump), and a MAP of such a density sits on a small spike above
-//! the bulk: curvature taken over a tiny step, or through the MAP's own
-//! value, sees the spike. Over two sds and without the centre (exact for a
+//! friction jump), and a MAP of such a density sits on a spike above the
+//! bulk: curvature taken over a tiny step, or through the MAP's own value,
+//! sees the spike. Over two sds and without the centre (exact for a
 //! quadratic, as the central formula is) it measures the bulk, which is what
-//! the evidence integrates. Where a step would leave the prior's support
-//! the difference is taken one-sided, into it (through the centre).
+//! the evidence integrates. The scales are measured from the bulk's value
+//! ([`bulk_value`]), and `ln p(D|theta*) p(theta*)` is the log-mean-exp of
+//! the log-posterior around the MAP ([`neighbourhood`]): the share of the
+//! spike that has volume. Where a step would leave the prior's support the
+//! difference is taken one-sided, into it (through the centre).
 //!
 //! Why not a sampled covariance (the earlier choice): a short ensemble run
 //! from the MAP has not spread to the posterior's width on a misfitted,
 //! correlated posterior; on the tutorial record `trilinear+coulomb` gave
 //! ln Z from 5770 to 5826 over four seeds. The Hessian is deterministic:
-//! the same MAP gives the same evidence whatever the seed (the true model
-//! there: 6515.25 for all four seeds, where the sampled covariance gave
-//! 6520.28 to 6520.74). It is checked against transitional MCMC in
-//! `tests/evidence.rs` (5937.6 against 5938.5). Its limit: on a misfitted
-//! model the log-posterior is rugged at the scale of the MAP's last digits,
-//! and seeds whose MAPs differ in the seventh digit still give evidences
-//! 9 to 21 nats apart (`trilinear+coulomb` on the tutorial record).
+//! the same MAP gives the same evidence whatever the seed. It is checked
+//! against transitional MCMC in
+//! `tests/evidence.rs` (5939.4 against 5938.5). On the tutorial record four
+//! seeds of the MAP search give the true model evidences within 0.44 nat
+//! and the misfitted `trilinear+coulomb` within 2.4
+//! (`examples/evidence_seeds.rs`).
 //!
 //! ```
 //! use hbis::inference::laplace::hessian;
@@ -213,10 +215,11 @@ pub const BULK_STEP: f64 = 1e-6;
 /// (`criticism::calibration`): four reversals within 2e-13 s of sample
 /// instants, every move of one part in 1e12 lowering the log-likelihood by
 /// 7 to 15 nats; and an `asymmetric-friction` refit of a record without it
-/// 66 to 140 nats above most points 1e-6 of a range away, which would have
-/// passed for a discovery. A move of [`BULK_STEP`] leaves the smooth part
-/// unchanged and crosses such edges; the median is what the bulk is worth
-/// there (a region covering less than half the directions is a spike).
+/// 66 to 140 nats above most points 1e-6 of a range away. A move of
+/// [`BULK_STEP`] leaves the smooth part unchanged and crosses such edges;
+/// the median is what the bulk is worth there (a region covering less than
+/// half the directions is a spike), and [`neighbourhood`]'s log-mean-exp
+/// what the neighbourhood is worth to an integral.
 ///
 /// ```
 /// use hbis::inference::laplace::bulk_value;

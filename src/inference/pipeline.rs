@@ -30,8 +30,7 @@ use thiserror::Error;
 
 use super::ensemble::SamplerError;
 use super::laplace::{
-    axis_scales, bulk_value, covariance_from, hessian, log_evidence, neighbourhood, Laplace,
-    SCALE_DROP, STEP,
+    axis_scales, covariance_from, hessian, log_evidence, neighbourhood, Laplace, SCALE_DROP, STEP,
 };
 use super::likelihood::{ar1_sum, sum_of_squares};
 use super::release::{fit_lag, LagError};
@@ -150,9 +149,11 @@ pub fn profile_log_likelihood(n: usize, s: f64, rho: Option<f64>) -> f64 {
     white + rho.map_or(0.0, |r| 0.5 * (1.0 - r * r).ln())
 }
 
-/// BIC and the maximised log-likelihood of `posterior` at `theta`: the
-/// bulk's value there ([`bulk_value`]), so that a model cannot gain by
-/// placing more reversals on the favourable side of sample instants.
+/// BIC and the maximised log-likelihood of `posterior` at `theta`: what
+/// the neighbourhood of `theta` is worth ([`neighbourhood`]'s log-mean-exp
+/// over a fixed design 1e-6 of each range away), so that a MAP on a corner
+/// of the likelihood's knife edges, with no volume, does not count its
+/// spike, while a favourable region with volume does.
 pub fn compare<M: ForwardModel>(
     posterior: &Posterior<M>,
     theta: &[f64],
@@ -166,7 +167,9 @@ pub fn compare<M: ForwardModel>(
         }
         log_likelihood_at(posterior, x)
     };
-    let log_likelihood = bulk_value(&ll, theta, &lo, &hi)?.min(ll(theta)?);
+    let log_likelihood = neighbourhood(&ll, theta, &lo, &hi)?
+        .log_mean_exp
+        .min(ll(theta)?);
     let n = posterior.data().a.len();
     let d = theta.len();
     Ok(Comparison {
