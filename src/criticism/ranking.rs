@@ -807,6 +807,10 @@ impl Gate {
     }
 }
 
+/// A candidate's refit: the candidate, its score, the fit, starts,
+/// agreeing starts, and the indices of its new parameters.
+type Refit = (Candidate, f64, ModelFit, usize, usize, Vec<usize>);
+
 /// Ranked candidates, and the current model's fit they are compared with.
 #[derive(Debug, Clone)]
 pub struct Ranking {
@@ -823,7 +827,7 @@ pub struct Ranking {
 fn improve_baseline(
     current: &Model,
     base: &mut ModelFit,
-    refits: &[(Candidate, f64, ModelFit, usize, usize, Vec<usize>)],
+    refits: &[Refit],
     data: &Aligned,
     budget: &MapSettings,
     seed: u64,
