@@ -10,7 +10,7 @@
 //! friction amplitude `F_F0 + k_F |u|` in the direction of sliding, damper),
 //! then each component's [`modify`](ForceComponent::modify) in order. The
 //! hysteretic spring's branches and the stop rule are the closed-form
-//! model's ([`Spring`](super::spring::Spring); eq. 5.6 with the forces of
+//! model's ([`Spring`]; eq. 5.6 with the forces of
 //! the components at `u' = 0`). Each stretch between events is integrated
 //! with the events located on the dense output: the reversal (`u' = 0`),
 //! the spring's next branch change, `u = 0` (the friction's kink) and the
