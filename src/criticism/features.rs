@@ -262,7 +262,7 @@ pub fn jump_size(d: &Diagnostics) -> Feature {
         z,
         significant: (ratio - 1.0).abs() > 0.1 && z > 3.0,
         sentence: format!(
-            "The acceleration jumps at reversals are {:.0} % {word} in the record than in the model ({z:.0} standard errors; jumps measured between lines fitted on each side, so a wrong stiffness does not enter): the friction force at reversals is {word} than modelled{}.",
+            "The acceleration jumps at reversals are {:.0} % {word} in the record than in the model ({z:.0} standard errors; jumps measured between lines fitted on each side of each reversal): the friction force at reversals is {word} than modelled{}.",
             100.0 * (ratio - 1.0).abs(),
             amplitude_trend(d)
         ),
