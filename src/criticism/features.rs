@@ -60,32 +60,6 @@ pub fn weighted_slope(x: &[f64], y: &[f64], se: &[f64]) -> Option<(f64, f64)> {
     Some((b, 1.0 / sxx.sqrt()))
 }
 
-/// Ordinary least squares of `y` on `x`: slope and its standard error.
-pub fn slope(x: &[f64], y: &[f64]) -> Option<(f64, f64)> {
-    let n = x.len();
-    if n < 4 {
-        return None;
-    }
-    let nf = n as f64;
-    let (mx, my) = (x.iter().sum::<f64>() / nf, y.iter().sum::<f64>() / nf);
-    let sxx: f64 = x.iter().map(|a| (a - mx).powi(2)).sum();
-    if sxx <= 0.0 {
-        return None;
-    }
-    let b = x
-        .iter()
-        .zip(y)
-        .map(|(a, c)| (a - mx) * (c - my))
-        .sum::<f64>()
-        / sxx;
-    let sse: f64 = x
-        .iter()
-        .zip(y)
-        .map(|(a, c)| (c - my - b * (a - mx)).powi(2))
-        .sum();
-    Some((b, (sse / (nf - 2.0) / sxx).sqrt()))
-}
-
 /// The offset feature.
 pub fn offset(d: &Diagnostics, n: usize) -> Feature {
     let r1 = d.lag1_raw.clamp(0.0, 0.99);
@@ -427,18 +401,4 @@ pub fn verdict(d: &Diagnostics, features: &[Feature]) -> String {
         ));
     }
     lines.join(" ")
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn slope_of_a_line_with_noise() {
-        let x: Vec<f64> = (0..6).map(f64::from).collect();
-        let y = [0.1, 0.31, 0.49, 0.72, 0.9, 1.1];
-        let (b, se) = slope(&x, &y).unwrap();
-        assert!((b - 0.2).abs() < 0.01 && se < 0.01, "{b} {se}");
-        assert!(slope(&x[..3], &y[..3]).is_none());
-    }
 }
