@@ -25,7 +25,7 @@ use rand::SeedableRng;
 use thiserror::Error;
 
 use crate::data::Aligned;
-use crate::inference::identifiability::{self, Identifiability, Segments};
+use crate::inference::identifiability::{self, Identifiability, ParamInfo, Segments};
 use crate::inference::pipeline::{compare, fit_map, laplace_evidence, Comparison, PipelineError};
 use crate::inference::summary::{covariance, ParamSummary};
 use crate::inference::{
@@ -218,8 +218,10 @@ pub fn fit_record(
         fit.posterior.model_part(&fit.map.theta),
         fit.posterior.data(),
     )?;
+    let info = param_info(&model, &names);
     let ident = identifiability::report(
         &names,
+        &info,
         &summaries,
         &cov,
         &prior_sd,
@@ -235,6 +237,33 @@ pub fn fit_record(
     fit.identifiability = Some(ident);
     fit.sample = Some(sample);
     Ok(fit)
+}
+
+/// Each parameter's declared scale, unit and meaning (the noise model's
+/// `rho` declared here).
+fn param_info(model: &Model, names: &[String]) -> Vec<ParamInfo> {
+    let specs = model.params();
+    names
+        .iter()
+        .map(|n| match specs.iter().find(|s| &s.name == n) {
+            Some(s) => ParamInfo {
+                name: n.clone(),
+                scale: s.scale,
+                unit: s.unit.clone(),
+                meaning: if s.shows.is_empty() {
+                    s.meaning.clone()
+                } else {
+                    s.shows.clone()
+                },
+            },
+            None => ParamInfo {
+                name: n.clone(),
+                scale: 0.01,
+                unit: "-".into(),
+                meaning: "the correlation of successive measurement errors".into(),
+            },
+        })
+        .collect()
 }
 
 /// Change of the model acceleration for a one-sd change of each parameter

@@ -42,10 +42,12 @@ fn without_wall_time(path: &Path) -> serde_json::Value {
         .remove("wall_time_s")
         .expect("wall_time_s is present");
     if let Some(s) = v.get_mut("sampling") {
-        s.as_object_mut()
-            .unwrap()
-            .remove("wall_time_s")
+        let s = s.as_object_mut().unwrap();
+        s.remove("wall_time_s")
             .expect("sampling.wall_time_s is present");
+        // "fresh" for a whole run, "resumed" for a resumed one.
+        s.remove("checkpoint")
+            .expect("sampling.checkpoint is present");
     }
     v
 }

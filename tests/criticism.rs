@@ -133,6 +133,28 @@ fn hidden_velocity_dependent_friction_is_found() {
     );
 }
 
+/// The same law with its threshold velocity three times the warm start's
+/// (`v_t` 0.15 m/s against the neutral start 0.05): found by the spread
+/// starts of the refit, not by starting on the truth.
+#[test]
+fn hidden_velocity_dependent_friction_is_found_away_from_the_warm_start() {
+    let model = Model::parse("trilinear+lcfm+viscous+velocity-friction").unwrap();
+    let truth = model
+        .theta_from_params(
+            &Params::table_8_1(5).unwrap(),
+            &[("r_mu", 0.3), ("v_t", 0.15)],
+        )
+        .unwrap();
+    hidden_in(
+        "velocity-friction",
+        "trilinear+lcfm+viscous",
+        &model,
+        &truth,
+        43,
+        1.02,
+    );
+}
+
 #[test]
 fn ladder_from_bilinear_coulomb_recovers_the_full_model() {
     let spec = ModelSpec::FULL;

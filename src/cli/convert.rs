@@ -31,9 +31,9 @@ pub fn run(a: Args) -> Result<()> {
     let params = inputs::params(&a.params, &spec)?;
     let q = Physical::from_params(&spec, &params, a.released_force, a.static_friction)?;
     if a.json {
-        println!("{}", serde_json::to_string_pretty(&q)?);
+        super::print_stdout(&(serde_json::to_string_pretty(&q)? + "\n"))?;
     } else {
-        print!("{}", table(&q));
+        super::print_stdout(&table(&q))?;
     }
     Ok(())
 }

@@ -2,17 +2,18 @@
 //! physical effect is missing.
 
 use std::io::{IsTerminal, Write};
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use anyhow::{Context, Result};
 use hbis::criticism::{
     choose_noise, diagnose_model, ladder_observed, place_release, Diagnostics, ModelFit,
     NoiseChoice, RankedCandidate, Step,
 };
-use hbis::data::{Aligned, Record, ReleaseSource};
+use hbis::data::{Aligned, ReleaseSource, Warning};
 use hbis::inference::{MapSettings, Noise};
 use hbis::model::{ForwardModel, Model, Registry};
 use hbis::report::json::DataInfo;
+use hbis::report::outdir::{InputEntry, OutDir};
 use serde::Serialize;
 
 #[derive(Debug, clap::Args)]
@@ -35,6 +36,8 @@ pub struct Args {
     /// Release time in the record's clock (s); default: detected.
     #[arg(long, allow_negative_numbers = true)]
     t0: Option<f64>,
+    #[command(flatten)]
+    record: super::inputs::RecordArgs,
     /// Measurement-error model of every fit: `white`, `ar1`, or `auto`
     /// (the lower BIC of the two at the start model).
     #[arg(long, default_value = "white")]
@@ -69,17 +72,13 @@ impl Args {
 
 /// The start model, the record (release placed) and the noise model, with
 /// how `auto` chose it.
-type Loaded = (Model, Aligned, Noise, Option<NoiseChoice>);
+type Loaded = (Model, Aligned, Noise, Option<NoiseChoice>, Vec<Warning>);
 
 fn load(a: &Args) -> Result<Loaded> {
     let model = super::inputs::model(&a.model)?;
     // Refused before any computation.
     let asked = a.noise()?;
-    let record =
-        Record::read(&a.data).with_context(|| format!("in record {}", a.data.display()))?;
-    let data = record
-        .aligned(a.t0)
-        .with_context(|| format!("in record {}", a.data.display()))?;
+    let (data, warnings) = super::inputs::record(&a.data, &a.record, a.t0)?;
     let mut err = std::io::stderr().lock();
     writeln!(err, "{}", super::fit::release_line(&data))?;
     let data = place_release(&model, data, &MapSettings::default(), a.seed ^ 0x7E1E_A5E0)
@@ -102,7 +101,16 @@ fn load(a: &Args) -> Result<Loaded> {
             (c.chosen, Some(c))
         }
     };
-    Ok((model, data, noise, choice))
+    Ok((model, data, noise, choice, warnings))
+}
+
+/// The record's warnings and those of a fit of `model` (printed).
+fn with_fit_warnings(mut warnings: Vec<Warning>, model: &Model, fit: &ModelFit) -> Vec<Warning> {
+    let priors = hbis::inference::Posterior::default_priors(model, fit.noise);
+    let more = hbis::report::sanity::fit_warnings(&fit.names, &fit.theta, fit.e2, &priors);
+    super::inputs::print_warnings(&more);
+    warnings.extend(more);
+    warnings
 }
 
 /// `diagnosis.json`.
@@ -124,14 +132,18 @@ struct DiagnosisReport<'a> {
     conclusion: String,
     residual: &'a Diagnostics,
     verdict: &'a str,
+    warnings: Vec<Warning>,
 }
 
 pub fn diagnose(a: Args) -> Result<()> {
-    let (model, data, noise, choice) = load(&a)?;
     let out = a
         .out
         .clone()
         .unwrap_or_else(|| PathBuf::from("hbis-diagnose"));
+    super::inputs::model(&a.model)?;
+    a.noise()?;
+    let mut dir = OutDir::open(&out, &[&a.data], "diagnose")?;
+    let (model, data, noise, choice, warnings) = load(&a)?;
     let settings = MapSettings::default();
     let (fit, diagnosis, ranked) = diagnose_model(
         &Registry::builtin(),
@@ -142,8 +154,6 @@ pub fn diagnose(a: Args) -> Result<()> {
         a.seed,
     )
     .context("diagnosis")?;
-    std::fs::create_dir_all(&out)
-        .with_context(|| format!("cannot create folder {}", out.display()))?;
     let report = DiagnosisReport {
         hbis_version: env!("CARGO_PKG_VERSION"),
         model: model.name(),
@@ -165,24 +175,33 @@ pub fn diagnose(a: Args) -> Result<()> {
         conclusion: hbis::criticism::conclusion(&diagnosis, &ranked),
         residual: &diagnosis,
         verdict: &diagnosis.verdict,
+        warnings: with_fit_warnings(warnings, &model, &fit),
     };
     let text = serde_json::to_string_pretty(&report)? + "\n";
-    let path = out.join("diagnosis.json");
-    std::fs::write(&path, &text).with_context(|| format!("cannot write {}", path.display()))?;
-    residual_figure(&out.join("residual.png"), &model, &fit, &data)?;
+    dir.write("diagnosis.json", text.as_bytes())?;
+    residual_figure(&mut dir, "residual.png", &model, &fit, &data)?;
     #[cfg(feature = "figures")]
-    hbis::report::figures::residual_map_figure(
-        &out.join("residual-map.png"),
-        &diagnosis.map_u_edges,
-        &diagnosis.map_v_edges,
-        &diagnosis.map_force,
-        &format!("{}: restoring-force residual", model.name()),
+    dir.write_with("residual-map.png", |tmp| {
+        hbis::report::figures::residual_map_figure(
+            tmp,
+            &diagnosis.map_u_edges,
+            &diagnosis.map_v_edges,
+            &diagnosis.map_force,
+            &format!("{}: restoring-force residual", model.name()),
+        )
+    })?;
+    let path = dir.path("diagnosis.json");
+    dir.finish(
+        "diagnose",
+        a.seed,
+        &model.name(),
+        Some(InputEntry::of(&a.data)?),
     )?;
     let mut err = std::io::stderr().lock();
     print_diagnosis(&mut err, &model.name(), &fit, &diagnosis, &ranked)?;
     writeln!(err, "wrote {}", path.display())?;
     if a.json {
-        print!("{text}");
+        super::print_stdout(&text)?;
     }
     Ok(())
 }
@@ -199,6 +218,7 @@ struct LadderReport<'a> {
     data: DataInfo,
     final_model: String,
     steps: Vec<LadderStep<'a>>,
+    warnings: Vec<Warning>,
 }
 
 #[derive(Debug, Serialize)]
@@ -217,27 +237,36 @@ struct LadderStep<'a> {
 
 pub fn run_ladder(l: LadderArgs) -> Result<()> {
     let a = l.common;
-    let (model, data, noise, choice) = load(&a)?;
     let out = a
         .out
         .clone()
         .unwrap_or_else(|| PathBuf::from("hbis-ladder"));
+    super::inputs::model(&a.model)?;
+    a.noise()?;
+    let mut dir = OutDir::open(&out, &[&a.data], "ladder")?;
+    let (model, data, noise, choice, warnings) = load(&a)?;
     let start = model.name();
     let steps = ladder_steps(model, &data, noise, a.seed, l.max_steps)?;
     let mut err = std::io::stderr().lock();
     print_ladder(&mut err, &steps)?;
+    let warnings = match steps.last() {
+        Some(s) => with_fit_warnings(warnings, &Registry::builtin().parse(&s.model)?, &s.fit),
+        None => warnings,
+    };
     let text = write_ladder(
-        &out,
+        &mut dir,
         &start,
         a.seed,
         &a.data.display().to_string(),
         &steps,
         &data,
         choice,
+        warnings,
     )?;
+    dir.finish("ladder", a.seed, &start, Some(InputEntry::of(&a.data)?))?;
     writeln!(err, "wrote {}", out.join("ladder.json").display())?;
     if a.json {
-        print!("{text}");
+        super::print_stdout(&text)?;
     }
     Ok(())
 }
@@ -263,7 +292,12 @@ pub fn ladder_steps(
             Some(c) => format!("adding {}", c.effect),
             None => "no effect added".to_string(),
         };
-        eprintln!("  fitted {}: e2 = {:.5}; {next}", s.model, s.e2);
+        let _ = writeln!(
+            std::io::stderr(),
+            "  fitted {}: e2 = {:.5}; {next}",
+            s.model,
+            s.e2
+        );
     };
     let registry = Registry::builtin();
     ladder_observed(
@@ -280,17 +314,17 @@ pub fn ladder_steps(
 }
 
 /// Writes ladder.json, ladder.png and one residual figure per step.
+#[allow(clippy::too_many_arguments)]
 pub fn write_ladder(
-    out: &Path,
+    out: &mut OutDir,
     start: &str,
     seed: u64,
     source: &str,
     steps: &[Step],
     data: &Aligned,
     noise_choice: Option<NoiseChoice>,
+    warnings: Vec<Warning>,
 ) -> Result<String> {
-    std::fs::create_dir_all(out)
-        .with_context(|| format!("cannot create folder {}", out.display()))?;
     let report = LadderReport {
         hbis_version: env!("CARGO_PKG_VERSION"),
         model: start.to_string(),
@@ -319,42 +353,52 @@ pub fn write_ladder(
                 conclusion: &s.conclusion,
             })
             .collect(),
+        warnings,
     };
     let text = serde_json::to_string_pretty(&report)? + "\n";
-    let path = out.join("ladder.json");
-    std::fs::write(&path, &text).with_context(|| format!("cannot write {}", path.display()))?;
+    out.write("ladder.json", text.as_bytes())?;
     for (k, s) in steps.iter().enumerate() {
         let model = Registry::builtin().parse(&s.model)?;
         let at_lag = data.clone().with_lag(s.lag);
-        residual_figure(&out.join(format!("step-{k}.png")), &model, &s.fit, &at_lag)?;
+        residual_figure(out, &format!("step-{k}.png"), &model, &s.fit, &at_lag)?;
     }
     #[cfg(feature = "figures")]
     {
         let labels: Vec<String> = steps.iter().map(|s| s.model.clone()).collect();
         let e2: Vec<f64> = steps.iter().map(|s| s.e2).collect();
         let z: Vec<f64> = steps.iter().map(|s| s.log_evidence).collect();
-        hbis::report::figures::ladder_figure(&out.join("ladder.png"), &labels, &e2, &z)?;
+        out.write_with("ladder.png", |tmp| {
+            hbis::report::figures::ladder_figure(tmp, &labels, &e2, &z)
+        })?;
     }
     Ok(text)
 }
 
-fn residual_figure(path: &Path, model: &Model, fit: &ModelFit, data: &Aligned) -> Result<()> {
+fn residual_figure(
+    out: &mut OutDir,
+    name: &str,
+    model: &Model,
+    fit: &ModelFit,
+    data: &Aligned,
+) -> Result<()> {
     #[cfg(feature = "figures")]
     {
         let mut accel = vec![0.0; data.a.len()];
         data.model_accel_into(model, fit.model_theta(model), &mut accel)?;
         let t: Vec<f64> = (0..accel.len()).map(|i| data.time(i)).collect();
-        hbis::report::figures::fit_figure(
-            path,
-            &t,
-            &data.in_record_sign(&data.a),
-            &data.in_record_sign(&accel),
-            None,
-            &format!("{}: e2 = {:.5}", model.name(), fit.e2),
-        )?;
+        out.write_with(name, |tmp| {
+            hbis::report::figures::fit_figure(
+                tmp,
+                &t,
+                &data.in_record_sign(&data.a),
+                &data.in_record_sign(&accel),
+                None,
+                &format!("{}: e2 = {:.5}", model.name(), fit.e2),
+            )
+        })?;
     }
     #[cfg(not(feature = "figures"))]
-    let _ = (path, model, fit, data);
+    let _ = (out, name, model, fit, data);
     Ok(())
 }
 

@@ -11,6 +11,7 @@ use hbis::model::physical::Physical;
 use hbis::model::response::grid_len;
 use hbis::model::{ModelSpec, Params, PhaseKind, Response};
 use hbis::report;
+use hbis::report::outdir::OutDir;
 use hbis::study::FitOptions;
 use rand::{rngs::StdRng, SeedableRng};
 
@@ -28,6 +29,7 @@ const DURATION: f64 = 10.0;
 pub fn run(a: Args) -> Result<()> {
     let spec = ModelSpec::FULL;
     let params = Params::table_8_1(5).context("Table 8.1 has Test 5")?;
+    let mut dir = OutDir::open(&a.out, &[], "demo")?;
     let mut out = std::io::stdout().lock();
     writeln!(out, "Solarino Test 5, model {spec}, Table 8.1 parameters:")?;
     for p in spec.param_names() {
@@ -50,41 +52,39 @@ pub fn run(a: Args) -> Result<()> {
     )?;
     write!(out, "{}", super::convert::table(&q))?;
 
-    std::fs::create_dir_all(&a.out)
-        .with_context(|| format!("cannot create folder {}", a.out.display()))?;
-    let csv_path = a.out.join("test5.csv");
-    let f = std::fs::File::create(&csv_path)
-        .with_context(|| format!("cannot create {}", csv_path.display()))?;
-    report::csv::write_samples(std::io::BufWriter::new(f), &response.sample_grid(DT)?)?;
-    writeln!(out, "\nwrote {}", csv_path.display())?;
+    let mut csv = Vec::new();
+    report::csv::write_samples(&mut csv, &response.sample_grid(DT)?)?;
+    dir.write("test5.csv", &csv)?;
+    writeln!(out, "\nwrote {}", dir.path("test5.csv").display())?;
     if cfg!(feature = "figures") {
-        let fig = a.out.join("test5.png");
-        figure(
-            &fig,
-            &response,
-            DT,
-            "Solarino Test 5 (Table 8.1): closed-form response",
-        )?;
-        writeln!(out, "wrote {}", fig.display())?;
+        dir.write_with("test5.png", |tmp| {
+            figure(
+                tmp,
+                &response,
+                DT,
+                "Solarino Test 5 (Table 8.1): closed-form response",
+            )
+        })?;
+        writeln!(out, "wrote {}", dir.path("test5.png").display())?;
     }
-    identify(&mut out, &a.out)?;
-    criticize(&mut out, &a.out)?;
+    identify(&mut out, &mut dir)?;
+    criticize(&mut out, &mut dir)?;
+    dir.finish("demo", SEED, &spec.to_string(), None)?;
     Ok(())
 }
 
 /// Model criticism: a record made by the full model from Test 8 (the test
 /// with the steepest friction slope), fitted from `bilinear+coulomb`, and the
 /// ladder that finds what is missing.
-fn criticize(out: &mut impl Write, dir: &Path) -> Result<()> {
+fn criticize(out: &mut impl Write, dir: &mut OutDir) -> Result<()> {
     let spec = ModelSpec::FULL;
     let truth = Params::table_8_1(8)
         .context("Table 8.1 has Test 8")?
         .to_theta(&spec);
     let mut rng = StdRng::seed_from_u64(SEED + 8);
     let syn = synthesize(&spec, &truth, DT, grid_len(DT, DURATION), 0.015, &mut rng)?;
-    let path = dir.join("record-hidden.csv");
-    std::fs::write(&path, syn.record.to_csv())
-        .with_context(|| format!("cannot write {}", path.display()))?;
+    dir.write("record-hidden.csv", syn.record.to_csv().as_bytes())?;
+    let path = dir.path("record-hidden.csv");
     writeln!(
         out,
         "\nModel criticism: a record with effects hidden from the starting model (made by {spec} from Test 8, \
@@ -102,16 +102,19 @@ fn criticize(out: &mut impl Write, dir: &Path) -> Result<()> {
         super::criticize::MAX_LADDER_STEPS,
     )?;
     super::criticize::print_ladder(out, &steps)?;
-    let ladder_dir = dir.join("ladder");
+    let ladder_dir = dir.path("ladder");
+    dir.set_prefix("ladder");
     super::criticize::write_ladder(
-        &ladder_dir,
+        dir,
         "bilinear+coulomb",
         SEED,
         &path.display().to_string(),
         &steps,
         &data,
         None,
+        hbis::data::record_warnings(&syn.record, &data),
     )?;
+    dir.set_prefix("");
     writeln!(
         out,
         "wrote {} and step-<k>.png, ladder.png beside it (same as: hbis ladder --data {} --model bilinear+coulomb --seed {SEED} --out {})",
@@ -127,7 +130,7 @@ const SEED: u64 = 2026;
 
 /// Fits a synthetic record made from Test 3 with 1.5 % noise: the MAP, the
 /// posterior and the identifiability report, beside the truth.
-fn identify(out: &mut impl Write, dir: &Path) -> Result<()> {
+fn identify(out: &mut impl Write, dir: &mut OutDir) -> Result<()> {
     let spec = ModelSpec::FULL;
     let truth = Params::table_8_1(3)
         .context("Table 8.1 has Test 3")?
@@ -135,9 +138,8 @@ fn identify(out: &mut impl Write, dir: &Path) -> Result<()> {
     let mut rng = StdRng::seed_from_u64(SEED);
     let n = grid_len(DT, DURATION);
     let syn = synthesize(&spec, &truth, DT, n, 0.015, &mut rng)?;
-    let record_path = dir.join("record.csv");
-    std::fs::write(&record_path, syn.record.to_csv())
-        .with_context(|| format!("cannot write {}", record_path.display()))?;
+    dir.write("record.csv", syn.record.to_csv().as_bytes())?;
+    let record_path = dir.path("record.csv");
     writeln!(
         out,
         "\nIdentification: a synthetic record from Test 3 (Table 8.1) with 1.5 % noise \
@@ -147,8 +149,9 @@ fn identify(out: &mut impl Write, dir: &Path) -> Result<()> {
         record_path.display()
     )?;
     let data = syn.record.aligned(None)?;
+    let record_warnings = hbis::data::record_warnings(&syn.record, &data);
     let model = hbis::model::Model::from(spec);
-    let fit_dir = dir.join("fit");
+    let fit_dir = dir.path("fit");
     let options = FitOptions {
         seed: SEED,
         map: MapSettings::default(),
@@ -198,14 +201,17 @@ fn identify(out: &mut impl Write, dir: &Path) -> Result<()> {
             }
         )?;
     }
+    dir.set_prefix("fit");
     super::fit::write_outputs(
         &fit,
-        &fit_dir,
+        dir,
         &record_path.display().to_string(),
         &spec.to_string(),
         SEED,
         Noise::White,
+        record_warnings,
     )?;
+    dir.set_prefix("");
     writeln!(
         out,
         "wrote {} and the chains, fit.png, corner.png, trace.png beside it (same as: hbis fit --data {} --seed {SEED} \

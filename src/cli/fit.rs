@@ -4,12 +4,13 @@ use std::io::{IsTerminal, Write};
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
-use hbis::data::{Aligned, Record};
+use hbis::data::{Aligned, Warning};
 use hbis::inference::{
-    MapEstimate, MapSettings, Noise, Posterior, Priors, Progress, SampleSettings,
+    CheckpointStatus, MapEstimate, MapSettings, Noise, Posterior, Priors, Progress, SampleSettings,
 };
 use hbis::model::{ForwardModel, Model};
 use hbis::report::json::{DataInfo, FitReport};
+use hbis::report::outdir::{InputEntry, OutDir};
 use hbis::study::{fit_record, predictive_band, Fit, FitOptions};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 
@@ -40,6 +41,8 @@ pub struct Args {
     /// Release time in the record's clock (s); default: detected.
     #[arg(long, allow_negative_numbers = true)]
     t0: Option<f64>,
+    #[command(flatten)]
+    record: inputs::RecordArgs,
     /// Measurement-error model: `white` or `ar1`.
     #[arg(long, default_value = "white")]
     noise: String,
@@ -77,11 +80,7 @@ pub fn run(a: Args) -> Result<()> {
     let model = inputs::model(&a.model)?;
     let noise = Noise::parse(&a.noise)
         .with_context(|| format!("--noise `{}`: expected `white` or `ar1`", a.noise))?;
-    let record =
-        Record::read(&a.data).with_context(|| format!("in record {}", a.data.display()))?;
-    let data = record
-        .aligned(a.t0)
-        .with_context(|| format!("in record {}", a.data.display()))?;
+    let (data, record_warnings) = inputs::record(&a.data, &a.record, a.t0)?;
     let defaults = Posterior::default_priors(&model, noise);
     let priors = match &a.prior {
         Some(p) => defaults
@@ -93,6 +92,14 @@ pub fn run(a: Args) -> Result<()> {
         (Some(f), Some(s)) => Some((f, s)),
         _ => None,
     };
+    if !a.map_only {
+        check_sampler_size(
+            Posterior::<Model>::names_for(&model, noise).len(),
+            a.walkers,
+            a.ensembles,
+            a.max_steps,
+        )?;
+    }
     let mut sample = SampleSettings::default()
         .with_ensembles(a.ensembles)
         .context("--ensembles")?
@@ -114,9 +121,26 @@ pub fn run(a: Args) -> Result<()> {
         label: a.data.display().to_string(),
         evidence: a.evidence,
     };
+    // The folder is locked and checked before any computation: a busy or
+    // unwritable --out costs nothing.
+    let mut inputs_used: Vec<&Path> = vec![&a.data];
+    if let Some(p) = &a.prior {
+        inputs_used.push(p);
+    }
+    let mut dir = OutDir::open(&a.out, &inputs_used, "fit")?;
     let mut err = std::io::stderr().lock();
     let lag_unknown = data.lag_unknown();
     writeln!(err, "{}", release_line(&data))?;
+    writeln!(
+        err,
+        "finding the MAP (CMA-ES with restarts, at most {} evaluations){}...",
+        a.max_evals,
+        if a.map_only {
+            ""
+        } else {
+            ", then sampling the posterior"
+        }
+    )?;
     drop(err);
     let fit = run_fit(model.clone(), data, priors, noise, &options)?;
     let mut err = std::io::stderr().lock();
@@ -130,20 +154,65 @@ pub fn run(a: Args) -> Result<()> {
         )?;
     }
     print_map(&mut err, &fit.map)?;
+    if let Some(s) = &fit.sample {
+        if !matches!(
+            s.checkpoint,
+            CheckpointStatus::None | CheckpointStatus::Fresh
+        ) {
+            writeln!(err, "{}", s.checkpoint)?;
+        }
+    }
     if fit.sample.is_some() {
         print_posterior(&mut err, &fit)?;
     }
+    let n_record = record_warnings.len();
     let report = write_outputs(
         &fit,
-        &a.out,
+        &mut dir,
         &a.data.display().to_string(),
         &model.name(),
         a.seed,
         noise,
+        record_warnings,
     )?;
+    inputs::print_warnings(&report.warnings[n_record..]);
+    dir.finish("fit", a.seed, &model.name(), Some(InputEntry::of(&a.data)?))?;
     writeln!(err, "wrote {}", a.out.join("fit.json").display())?;
     if a.json {
-        println!("{}", serde_json::to_string_pretty(&report)?);
+        super::print_stdout(&(serde_json::to_string_pretty(&report)? + "\n"))?;
+    }
+    Ok(())
+}
+
+/// Most memory the chains of one run may take (bytes): 8 GiB.
+pub const MAX_CHAIN_BYTES: f64 = 8.0 * 1024.0 * 1024.0 * 1024.0;
+
+/// Refuses, before the MAP, a sampler the stretch move cannot run (fewer
+/// than `2 dim` walkers) or whose chains could not fit in memory.
+fn check_sampler_size(
+    dim: usize,
+    walkers: Option<usize>,
+    ensembles: usize,
+    max_steps: usize,
+) -> Result<()> {
+    let w = walkers.unwrap_or_else(|| {
+        let n = 32.max(4 * dim);
+        n + n % 2
+    });
+    if w < 2 * dim {
+        anyhow::bail!(
+            "--walkers {w}: the model has {dim} parameters and the stretch move needs at least 2 x {dim} = {} walkers per ensemble",
+            2 * dim
+        );
+    }
+    // Positions and log-densities of every step of every walker.
+    let bytes = w as f64 * ensembles as f64 * max_steps as f64 * (dim + 1) as f64 * 8.0;
+    if bytes > MAX_CHAIN_BYTES {
+        anyhow::bail!(
+            "--walkers {w} x --ensembles {ensembles} x --max-steps {max_steps} would keep {:.1} GiB of chains in memory, more than the limit of {:.0} GiB: lower one of them",
+            bytes / 1024f64.powi(3),
+            MAX_CHAIN_BYTES / 1024f64.powi(3)
+        );
     }
     Ok(())
 }
@@ -212,34 +281,32 @@ pub fn run_fit(
     Ok(fit)
 }
 
-/// Writes fit.json, fit.csv, the chains and the figures.
+/// Writes fit.json, fit.csv, the chains and the figures into `out`, each
+/// atomically.
 pub fn write_outputs(
     fit: &Fit,
-    out: &Path,
+    out: &mut OutDir,
     source: &str,
     spec: &str,
     seed: u64,
     noise: Noise,
+    record_warnings: Vec<Warning>,
 ) -> Result<FitReport> {
-    std::fs::create_dir_all(out)
-        .with_context(|| format!("cannot create folder {}", out.display()))?;
     let data = fit.posterior.data();
     let mut chain_files = Vec::new();
     if let Some(sample) = &fit.sample {
-        let dir = out.join("chains");
-        std::fs::create_dir_all(&dir)
-            .with_context(|| format!("cannot create folder {}", dir.display()))?;
         for e in 0..sample.chains.len() {
             let name = format!("chains/chain-{}.csv", e + 1);
-            let path = out.join(&name);
-            let f = std::fs::File::create(&path)
-                .with_context(|| format!("cannot create {}", path.display()))?;
-            hbis::report::cmdstan::write_chain(std::io::BufWriter::new(f), sample, e, spec, seed)
-                .with_context(|| format!("writing {}", path.display()))?;
+            out.write_with(&name, |tmp| {
+                let f = std::fs::File::create(tmp)?;
+                let mut w = std::io::BufWriter::new(f);
+                hbis::report::cmdstan::write_chain(&mut w, sample, e, spec, seed)?;
+                w.into_inner().map_err(|e| e.into_error())?.sync_all()
+            })?;
             chain_files.push(name);
         }
     }
-    let report = FitReport::from_fit(
+    let mut report = FitReport::from_fit(
         spec,
         seed,
         noise,
@@ -247,9 +314,11 @@ pub fn write_outputs(
         fit,
         chain_files,
     );
-    let path = out.join("fit.json");
-    std::fs::write(&path, serde_json::to_string_pretty(&report)? + "\n")
-        .with_context(|| format!("cannot write {}", path.display()))?;
+    report.warnings.splice(0..0, record_warnings);
+    out.write(
+        "fit.json",
+        (serde_json::to_string_pretty(&report)? + "\n").as_bytes(),
+    )?;
     // In the record's own sign (the fit sees it mirrored if it starts positive).
     let model = data.in_record_sign(&fit.posterior.model_accel(&fit.map.theta)?);
     let measured = data.in_record_sign(&data.a);
@@ -280,30 +349,33 @@ pub fn write_outputs(
         }
         csv.push('\n');
     }
-    let path = out.join("fit.csv");
-    std::fs::write(&path, csv).with_context(|| format!("cannot write {}", path.display()))?;
+    out.write("fit.csv", csv.as_bytes())?;
     #[cfg(feature = "figures")]
     {
         use hbis::report::figures;
-        figures::fit_figure(
-            &out.join("fit.png"),
-            &t,
-            &measured,
-            &model,
-            band.as_ref().map(|(l, h)| (l.as_slice(), h.as_slice())),
-            &format!("{spec}: MAP fit, e2 = {:.5}", fit.map.eval.e2),
-        )?;
+        out.write_with("fit.png", |tmp| {
+            figures::fit_figure(
+                tmp,
+                &t,
+                &measured,
+                &model,
+                band.as_ref().map(|(l, h)| (l.as_slice(), h.as_slice())),
+                &format!("{spec}: MAP fit, e2 = {:.5}", fit.map.eval.e2),
+            )
+        })?;
         if let Some(sample) = &fit.sample {
             let points = sample.points();
             let stride = (points.len() / 3000).max(1);
             let thin: Vec<Vec<f64>> = points.into_iter().step_by(stride).collect();
-            figures::corner_figure(
-                &out.join("corner.png"),
-                &sample.names,
-                &thin,
-                Some(&fit.map.theta),
-                &format!("{spec}: posterior (red: MAP)"),
-            )?;
+            out.write_with("corner.png", |tmp| {
+                figures::corner_figure(
+                    tmp,
+                    &sample.names,
+                    &thin,
+                    Some(&fit.map.theta),
+                    &format!("{spec}: posterior (red: MAP)"),
+                )
+            })?;
             let c = &sample.chains[0];
             let walkers: Vec<usize> = (0..c.walkers()).step_by((c.walkers() / 8).max(1)).collect();
             let traces: Vec<Vec<Vec<f64>>> = (0..c.dim())
@@ -314,13 +386,15 @@ pub fn write_outputs(
                         .collect()
                 })
                 .collect();
-            figures::trace_figure(
-                &out.join("trace.png"),
-                &sample.names,
-                &traces,
-                sample.burn,
-                &format!("{spec}: traces of ensemble 1 (black line: end of burn-in)"),
-            )?;
+            out.write_with("trace.png", |tmp| {
+                figures::trace_figure(
+                    tmp,
+                    &sample.names,
+                    &traces,
+                    sample.burn,
+                    &format!("{spec}: traces of ensemble 1 (black line: end of burn-in)"),
+                )
+            })?;
         }
     }
     Ok(report)
@@ -411,19 +485,27 @@ pub fn print_posterior(out: &mut impl Write, fit: &Fit) -> Result<()> {
     }
     writeln!(
         out,
-        "\nIdentifiability (best determined first): {}",
+        "\nIdentifiability (best determined first, by posterior sd / prior sd): {}",
         id.ranking.join(", ")
     )?;
     writeln!(
         out,
-        "  {:6} {:>11} {:>10} {:>9} {:>14}",
-        "", "contraction", "inflation", "partner", "correlation"
+        "  {:6} {:>9} {:>11} {:>9} {:>10} {:>9} {:>12}",
+        "", "sd/prior", "contraction", "sd/scale", "inflation", "partner", "correlation"
     )?;
-    for (n, p) in &id.params {
+    for n in &id.ranking {
+        let Some((_, p)) = id.params.iter().find(|(m, _)| m == n) else {
+            continue;
+        };
         writeln!(
             out,
-            "  {n:6} {:>11.4} {:>10.2} {:>9} {:>+14.2}",
-            p.contraction, p.variance_inflation, p.partner, p.partner_correlation
+            "  {n:6} {:>8.3}% {:>11.4} {:>9.3} {:>10.2} {:>9} {:>+12.2}",
+            100.0 * p.sd_ratio,
+            p.contraction,
+            p.sd_scaled,
+            p.variance_inflation,
+            p.partner,
+            p.partner_correlation
         )?;
     }
     writeln!(out, "\n{}", id.explanation)?;

@@ -3,6 +3,7 @@
 use std::path::Path;
 
 use anyhow::{Context, Result};
+use hbis::data::{record_warnings, AccelUnits, Aligned, Record, Warning};
 use hbis::model::{Model, ModelSpec, Params, Registry};
 
 /// Parse a model argument with the built-in registry (core laws and every
@@ -35,4 +36,74 @@ pub fn ensure_parent(path: &Path) -> Result<()> {
             .with_context(|| format!("cannot create folder {}", dir.display()))?;
     }
     Ok(())
+}
+
+/// How a record file is read: its acceleration unit and whether detected
+/// single-sample outliers are replaced before the fit.
+#[derive(Debug, Clone, clap::Args)]
+pub struct RecordArgs {
+    /// Unit of the record's acceleration column: `m/s2`, `g` or `mm/s2`
+    /// (converted to m/s^2 on reading).
+    #[arg(long, default_value = "m/s2")]
+    pub accel_units: String,
+    /// Replace detected single-sample outliers (glitches) by the mean of
+    /// their neighbours before the fit (they are always reported, and
+    /// always ignored by the release detection).
+    #[arg(long)]
+    pub drop_outliers: bool,
+}
+
+impl RecordArgs {
+    /// The unit asked for, refused before any work if unknown.
+    pub fn units(&self) -> Result<AccelUnits> {
+        self.accel_units
+            .parse::<AccelUnits>()
+            .with_context(|| format!("--accel-units `{}`", self.accel_units))
+    }
+}
+
+/// Reads, converts and aligns a record; returns it with the warnings it
+/// raises (printed on standard error as well).
+pub fn record(path: &Path, how: &RecordArgs, t0: Option<f64>) -> Result<(Aligned, Vec<Warning>)> {
+    let units = how.units()?;
+    let within = || format!("in record {}", path.display());
+    let raw = Record::read(path)
+        .and_then(|r| r.in_units(units))
+        .with_context(within)?;
+    let (record, dropped) = if how.drop_outliers {
+        raw.without_outliers()
+    } else {
+        (raw.clone(), Vec::new())
+    };
+    let data = record.aligned(t0).with_context(within)?;
+    if !data.energy().is_finite() {
+        let peak = data.a.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        anyhow::bail!(
+            "in record {}: column `a`: values up to {peak:e} m/s^2 are too large to fit (their squares overflow); check the record's scale",
+            path.display()
+        );
+    }
+    let mut warnings = record_warnings(&raw, &data);
+    if !dropped.is_empty() {
+        let rows: Vec<String> = dropped.iter().map(|o| o.row.to_string()).collect();
+        warnings.push(Warning {
+            code: "outliers-dropped".into(),
+            message: format!(
+                "{} single-sample outliers replaced by the mean of their neighbours before the fit (rows {})",
+                dropped.len(),
+                rows.join(", ")
+            ),
+        });
+    }
+    print_warnings(&warnings);
+    Ok((data, warnings))
+}
+
+/// Prints warnings on standard error (ignoring a closed stderr).
+pub fn print_warnings(warnings: &[Warning]) {
+    use std::io::Write;
+    let mut err = std::io::stderr().lock();
+    for w in warnings {
+        let _ = writeln!(err, "{w}");
+    }
 }

@@ -8,7 +8,10 @@ mod fit;
 mod inputs;
 mod simulate;
 
+use std::io::Write;
 use std::process::ExitCode;
+
+use anyhow::{Context, Result};
 
 use clap::{Parser, Subcommand};
 
@@ -53,8 +56,18 @@ pub fn main() -> ExitCode {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             let chain: Vec<String> = e.chain().map(|c| c.to_string()).collect();
-            eprintln!("hbis: error: {}", chain.join(": "));
+            // A closed or full stderr must not turn an error into a panic.
+            let _ = writeln!(std::io::stderr(), "hbis: error: {}", chain.join(": "));
             ExitCode::from(2)
         }
     }
+}
+
+/// Writes `text` to standard output, flushed, as an error (not a panic)
+/// when it cannot be written (`> /dev/full`, a closed pipe).
+pub fn print_stdout(text: &str) -> Result<()> {
+    let mut out = std::io::stdout().lock();
+    out.write_all(text.as_bytes())
+        .and_then(|_| out.flush())
+        .context("cannot write to standard output")
 }

@@ -7,6 +7,7 @@ use anyhow::{Context, Result};
 use hbis::model::response::grid_len;
 use hbis::model::{Response, SimError};
 use hbis::report;
+use hbis::report::outdir::{refuse_same_file, write_file_atomic, write_path_atomic};
 
 use super::inputs;
 
@@ -47,38 +48,74 @@ pub fn run(a: Args) -> Result<()> {
             a.dt
         );
     }
+    distinct_outputs(&a)?;
+    check_grid_size(a.dt, a.duration)?;
     let response = Response::simulate(&spec, &params, a.duration)?;
     let samples = response.sample_grid(a.dt)?;
+    let mut csv = Vec::new();
+    report::csv::write_samples(&mut csv, &samples).context("formatting the samples")?;
     match &a.out {
-        Some(path) => {
-            inputs::ensure_parent(path)?;
-            let f = std::fs::File::create(path)
-                .with_context(|| format!("cannot create {}", path.display()))?;
-            report::csv::write_samples(std::io::BufWriter::new(f), &samples)
-                .with_context(|| format!("writing {}", path.display()))?;
-        }
-        None => report::csv::write_samples(std::io::stdout().lock(), &samples)
-            .context("writing samples to standard output")?,
+        Some(path) => write_file_atomic(path, &[&a.params], &csv)?,
+        None => super::print_stdout(&String::from_utf8_lossy(&csv))?,
     }
     if let Some(path) = &a.phases {
-        inputs::ensure_parent(path)?;
-        let f = std::fs::File::create(path)
-            .with_context(|| format!("cannot create {}", path.display()))?;
-        report::csv::write_phases(f, response.phases())
-            .with_context(|| format!("writing {}", path.display()))?;
+        let mut text = Vec::new();
+        report::csv::write_phases(&mut text, response.phases()).context("formatting the phases")?;
+        write_file_atomic(path, &[&a.params], &text)?;
     }
     if let Some(path) = &a.figure {
-        super::demo::figure(
-            path,
-            &response,
-            a.dt,
-            &format!("{spec}: simulated release test"),
-        )?;
+        write_path_atomic(path, &[&a.params], |tmp| {
+            super::demo::figure(
+                tmp,
+                &response,
+                a.dt,
+                &format!("{spec}: simulated release test"),
+            )
+        })?;
     }
     // The summary goes to stderr so that stdout can carry the CSV.
     let mut err = std::io::stderr().lock();
     super::demo::summary(&mut err, &response)?;
     err.flush()?;
+    Ok(())
+}
+
+/// Most samples `simulate` writes: 10 million rows (about 600 MB of CSV).
+pub const MAX_SAMPLES: f64 = 1e7;
+
+/// Refuses a grid too long to hold before allocating it.
+fn check_grid_size(dt: f64, duration: f64) -> Result<()> {
+    let n = duration / dt + 1.0;
+    if n > MAX_SAMPLES {
+        anyhow::bail!(
+            "--duration {duration} s at --dt {dt} s makes {n:.3e} samples, more than the limit of {MAX_SAMPLES:.0e}: use a larger --dt or a shorter --duration"
+        );
+    }
+    Ok(())
+}
+
+/// The samples, the phase log and the figure must go to three different
+/// files, none of them the parameter file.
+fn distinct_outputs(a: &Args) -> Result<()> {
+    let outs: Vec<(&str, &PathBuf)> = [
+        ("--out", &a.out),
+        ("--phases", &a.phases),
+        ("--figure", &a.figure),
+    ]
+    .into_iter()
+    .filter_map(|(n, p)| p.as_ref().map(|p| (n, p)))
+    .collect();
+    for (i, (n, p)) in outs.iter().enumerate() {
+        refuse_same_file(p, &[&a.params]).with_context(|| format!("{n} {}", p.display()))?;
+        for (m, q) in &outs[i + 1..] {
+            if refuse_same_file(p, &[q.as_path()]).is_err() {
+                anyhow::bail!(
+                    "{n} and {m} name the same file {}: give each its own",
+                    p.display()
+                );
+            }
+        }
+    }
     Ok(())
 }
 

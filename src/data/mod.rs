@@ -1,8 +1,13 @@
-//! Measured records: reading, validation, alignment to the release, and
-//! synthetic records for tests and studies.
+//! Measured records: reading, validation, alignment to the release, sanity
+//! warnings, and synthetic records for tests and studies.
 
 pub mod record;
 pub mod synthetic;
+pub mod validation;
 
-pub use record::{Aligned, Record, RecordError, ReleaseSource, MIN_SAMPLES};
+pub use record::{
+    Aligned, Outlier, Record, RecordError, ReleaseSource, MAX_SAMPLES, MIN_SAMPLES,
+    OUTLIER_THRESHOLD,
+};
 pub use synthetic::{synthesize, Synthetic};
+pub use validation::{record_warnings, AccelUnits, UnknownUnits, Warning};

@@ -28,6 +28,7 @@ pub use polish::{Polish, PolishError, PolishOutcome};
 pub use posterior::{Evaluation, Posterior, PosteriorError};
 pub use priors::{default_bounds, Prior, PriorError, Priors};
 pub use sample::{
-    conditional_scales, sample_posterior, PosteriorSample, Progress, SampleError, SampleSettings,
+    conditional_scales, sample_posterior, CheckpointStatus, PosteriorSample, Progress, SampleError,
+    SampleSettings,
 };
 pub use summary::ParamSummary;

@@ -20,9 +20,18 @@
 //!   ensemble, then a small state file replaced atomically), so a run killed
 //!   at any moment resumes from the last complete chunk and ends with
 //!   exactly the result of an uninterrupted run.
+//! - **Integrity.** The state file holds, per ensemble, the length and the
+//!   64-bit FNV-1a checksum of the steps it covers. A checkpoint is resumed
+//!   only if the state parses, has this format version and the run's
+//!   fingerprint, and every chain file holds those bytes with finite values;
+//!   otherwise it is discarded (the reason in
+//!   [`PosteriorSample::checkpoint`]) and the run starts afresh, deleting the
+//!   old files first. Files are only ever appended to or replaced by rename:
+//!   steps written after the last state (a run killed between the two) are
+//!   dropped by copying the verified prefix to a new file.
 
 use std::fs::{File, OpenOptions};
-use std::io::{Read, Seek, SeekFrom, Write};
+use std::io::{Read, Write};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -182,6 +191,39 @@ pub struct Progress {
     pub target_steps: usize,
 }
 
+/// What became of the checkpoint folder at the start of a run.
+///
+/// Serialised internally tagged, kebab-case: `{"status": "none"}`,
+/// `{"status": "fresh"}`, `{"status": "resumed", "steps": 300}`,
+/// `{"status": "discarded", "reason": "..."}`.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(tag = "status", rename_all = "kebab-case")]
+pub enum CheckpointStatus {
+    /// No checkpoint folder was used.
+    None,
+    /// No checkpoint to resume: the run started afresh.
+    Fresh,
+    /// Resumed from a verified checkpoint of `steps` steps per ensemble.
+    Resumed { steps: usize },
+    /// A checkpoint was found but not resumed (corrupted, truncated, from
+    /// another configuration or format): the run started afresh after
+    /// deleting it. `reason` names the file and what was wrong.
+    Discarded { reason: String },
+}
+
+impl std::fmt::Display for CheckpointStatus {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::None => write!(f, "no checkpoint"),
+            Self::Fresh => write!(f, "no checkpoint to resume; started afresh"),
+            Self::Resumed { steps } => write!(f, "resumed from the checkpoint at step {steps}"),
+            Self::Discarded { reason } => {
+                write!(f, "checkpoint discarded, started afresh: {reason}")
+            }
+        }
+    }
+}
+
 /// The posterior sample and its diagnostics.
 #[derive(Debug, Clone)]
 pub struct PosteriorSample {
@@ -206,6 +248,9 @@ pub struct PosteriorSample {
     pub evaluations: u64,
     /// Wall time of this process's part of the run (s).
     pub wall_time: f64,
+    /// Whether the run resumed a checkpoint, started afresh, or discarded
+    /// one (and why).
+    pub checkpoint: CheckpointStatus,
 }
 
 impl PosteriorSample {
@@ -355,12 +400,54 @@ fn start<D: LogDensity>(
     Err(SampleError::Start { walkers, dim })
 }
 
+/// Version of the checkpoint format (`state.json` and the chain files); a
+/// checkpoint of another version is discarded.
+const FORMAT_VERSION: u32 = 2;
+
+const FNV_OFFSET: u64 = 0xcbf2_9ce4_8422_2325;
+
+/// 64-bit FNV-1a of `bytes`, continued from `h` (start at [`FNV_OFFSET`]).
+fn fnv1a(mut h: u64, bytes: &[u8]) -> u64 {
+    for b in bytes {
+        h ^= *b as u64;
+        h = h.wrapping_mul(0x0100_0000_01b3);
+    }
+    h
+}
+
 #[derive(Debug, Serialize, Deserialize)]
 struct State {
+    version: u32,
     fingerprint: String,
     steps: usize,
     chunks: u64,
     accepted: Vec<Vec<u64>>,
+    /// Per ensemble: what its chain file holds for the first `steps` steps.
+    files: Vec<FileSum>,
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize)]
+struct FileSum {
+    /// Length of the covered prefix (`steps * record` bytes).
+    bytes: u64,
+    /// 64-bit FNV-1a of those bytes, 16 hex digits.
+    fnv1a: String,
+}
+
+/// What [`Checkpoint::restore`] found.
+enum Restored {
+    /// No state file.
+    Missing,
+    /// A checkpoint that must not be resumed, and why.
+    Discarded(String),
+    /// A verified checkpoint.
+    Resumed {
+        steps: usize,
+        chunks: u64,
+        chains: Vec<Chain>,
+        /// Running checksum of each chain file.
+        sums: Vec<u64>,
+    },
 }
 
 /// A checkpoint folder: `state.json` and `ensemble-<e>.bin`.
@@ -377,53 +464,159 @@ impl Checkpoint {
         }
     }
 
-    fn chain_path(&self, e: usize) -> PathBuf {
-        self.dir.join(format!("ensemble-{e}.bin"))
+    fn chain_name(e: usize) -> String {
+        format!("ensemble-{e}.bin")
     }
 
-    /// Restores chains if a matching state exists.
-    fn load(
-        &self,
-        fingerprint: &str,
-        walkers: usize,
-        dim: usize,
-    ) -> Result<Option<(State, Vec<Chain>)>, SampleError> {
+    fn chain_path(&self, e: usize) -> PathBuf {
+        self.dir.join(Self::chain_name(e))
+    }
+
+    /// `file` as reported: the folder's own name, then the file's.
+    fn label(&self, file: &str) -> String {
+        match self.dir.file_name() {
+            Some(d) => format!("{}/{file}", d.to_string_lossy()),
+            None => self.dir.join(file).display().to_string(),
+        }
+    }
+
+    /// Restores the chains if the state file exists, parses, is of this
+    /// format and run, and every chain file holds exactly the bytes it
+    /// records. A chain file longer than that (steps appended after the
+    /// last state) is replaced by its verified prefix, by rename.
+    fn restore(&self, fingerprint: &str, walkers: usize, dim: usize, ensembles: usize) -> Restored {
+        let state_label = self.label("state.json");
         let path = self.dir.join("state.json");
-        let text = match std::fs::read_to_string(&path) {
+        let text = match std::fs::read(&path) {
             Ok(t) => t,
-            Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
-            Err(e) => return Err(self.err(&path, e)),
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Restored::Missing,
+            Err(e) => return Restored::Discarded(format!("{state_label} could not be read ({e})")),
         };
-        let state: State = match serde_json::from_str(&text) {
+        let value: serde_json::Value = match serde_json::from_slice(&text) {
+            Ok(v) => v,
+            Err(e) => return Restored::Discarded(format!("{state_label} is not valid JSON ({e})")),
+        };
+        match value.get("version").and_then(serde_json::Value::as_u64) {
+            Some(v) if v == FORMAT_VERSION as u64 => {}
+            Some(v) => {
+                return Restored::Discarded(format!(
+                    "{state_label} has checkpoint format version {v}; this hbis reads version {FORMAT_VERSION}"
+                ))
+            }
+            None => {
+                return Restored::Discarded(format!(
+                    "{state_label} has no checkpoint format version (an older hbis or another program wrote it)"
+                ))
+            }
+        }
+        let state: State = match serde_json::from_value(value) {
             Ok(s) => s,
-            Err(_) => return Ok(None),
+            Err(e) => {
+                return Restored::Discarded(format!(
+                    "{state_label} lacks or mistypes checkpoint fields ({e})"
+                ))
+            }
         };
         if state.fingerprint != fingerprint {
-            return Ok(None);
+            return Restored::Discarded(format!(
+                "{} belongs to another configuration (seed, model, settings or record differ)",
+                self.label("").trim_end_matches('/')
+            ));
         }
         let record = walkers * (dim + 1) * 8;
-        let mut chains = Vec::new();
-        for (e, accepted) in state.accepted.iter().enumerate() {
+        let want = match state.steps.checked_mul(record) {
+            Some(w) if state.steps > 0 => w,
+            _ => {
+                return Restored::Discarded(format!(
+                    "{state_label} records an impossible step count ({})",
+                    state.steps
+                ))
+            }
+        };
+        if state.accepted.len() != ensembles
+            || state.files.len() != ensembles
+            || state
+                .accepted
+                .iter()
+                .any(|a| a.len() != walkers || a.iter().any(|&n| n > state.steps as u64))
+        {
+            return Restored::Discarded(format!(
+                "{state_label} does not describe {ensembles} ensembles of {walkers} walkers over {} steps",
+                state.steps
+            ));
+        }
+        let mut chains = Vec::with_capacity(ensembles);
+        let mut sums = Vec::with_capacity(ensembles);
+        for (e, (accepted, sum)) in state.accepted.iter().zip(&state.files).enumerate() {
+            let label = self.label(&Self::chain_name(e));
+            let expected = match u64::from_str_radix(&sum.fnv1a, 16) {
+                Ok(h) if sum.bytes == want as u64 && sum.fnv1a.len() == 16 => h,
+                _ => {
+                    return Restored::Discarded(format!(
+                        "{state_label}: the record of {label} is malformed"
+                    ))
+                }
+            };
             let p = self.chain_path(e);
-            let mut f = OpenOptions::new()
-                .read(true)
-                .write(true)
-                .open(&p)
-                .map_err(|x| self.err(&p, x))?;
-            let want = (state.steps * record) as u64;
-            // Steps appended after the last state was written are dropped.
-            f.set_len(want).map_err(|x| self.err(&p, x))?;
-            f.seek(SeekFrom::Start(0)).map_err(|x| self.err(&p, x))?;
-            let mut bytes = Vec::with_capacity(want as usize);
-            f.read_to_end(&mut bytes).map_err(|x| self.err(&p, x))?;
+            let mut f = match File::open(&p) {
+                Ok(f) => f,
+                Err(x) => return Restored::Discarded(format!("{label} could not be opened ({x})")),
+            };
+            let len = match f.metadata() {
+                Ok(m) => m.len(),
+                Err(x) => return Restored::Discarded(format!("{label} could not be read ({x})")),
+            };
+            if len < want as u64 {
+                return Restored::Discarded(format!(
+                    "{label} is {len} bytes long, shorter than the {want} bytes of the {} steps in state.json (file truncated)",
+                    state.steps
+                ));
+            }
+            let mut bytes = vec![0u8; want];
+            if let Err(x) = f.read_exact(&mut bytes) {
+                return Restored::Discarded(format!("{label} could not be read ({x})"));
+            }
+            drop(f);
+            let h = fnv1a(FNV_OFFSET, &bytes);
+            if h != expected {
+                return Restored::Discarded(format!(
+                    "{label}: checksum of the first {} steps does not match state.json (file corrupted)",
+                    state.steps
+                ));
+            }
             let values: Vec<f64> = bytes
                 .chunks_exact(8)
                 .map(|b| f64::from_le_bytes(b.try_into().expect("8 bytes")))
                 .collect();
-            let (mut samples, mut lp) = (Vec::new(), Vec::new());
+            let (mut samples, mut lp) = (
+                Vec::with_capacity(state.steps * walkers * dim),
+                Vec::with_capacity(state.steps * walkers),
+            );
             for step in values.chunks_exact(walkers * (dim + 1)) {
                 samples.extend_from_slice(&step[..walkers * dim]);
                 lp.extend_from_slice(&step[walkers * dim..]);
+            }
+            if let Some(i) = samples.iter().position(|v| !v.is_finite()) {
+                return Restored::Discarded(format!(
+                    "{label}: position at step {} is not finite (file corrupted)",
+                    i / (walkers * dim)
+                ));
+            }
+            if let Some(i) = lp.iter().position(|v| !v.is_finite()) {
+                return Restored::Discarded(format!(
+                    "{label}: log-probability at step {} is not finite (file corrupted)",
+                    i / walkers
+                ));
+            }
+            if len > want as u64 {
+                // Steps appended after the last state: keep the verified
+                // prefix, written to a new file renamed into place.
+                if let Err(x) = self.replace(&p, &bytes) {
+                    return Restored::Discarded(format!(
+                        "{label}: could not drop the {} bytes written after state.json ({x})",
+                        len - want as u64
+                    ));
+                }
             }
             chains.push(Chain::from_parts(
                 walkers,
@@ -432,13 +625,72 @@ impl Checkpoint {
                 lp,
                 accepted.clone(),
             ));
+            sums.push(h);
         }
-        Ok(Some((state, chains)))
+        Restored::Resumed {
+            steps: state.steps,
+            chunks: state.chunks,
+            chains,
+            sums,
+        }
     }
 
-    /// Appends the new steps of each chain, then replaces the state file.
-    fn save(&self, state: &State, chains: &[Chain], from_step: usize) -> Result<(), SampleError> {
+    /// Replaces `path` with a file holding `bytes`: written to a temporary
+    /// file, synced, renamed over it.
+    fn replace(&self, path: &Path, bytes: &[u8]) -> std::io::Result<()> {
+        let _ = self;
+        let mut tmp = path.as_os_str().to_owned();
+        tmp.push(".tmp");
+        let tmp = PathBuf::from(tmp);
+        {
+            let mut f = File::create(&tmp)?;
+            f.write_all(bytes)?;
+            f.sync_all()?;
+        }
+        std::fs::rename(&tmp, path)
+    }
+
+    /// Deletes the state and every chain file (any index), for a fresh run.
+    fn clear(&self) -> Result<(), SampleError> {
+        let remove = |p: &Path| match std::fs::remove_file(p) {
+            Err(x) if x.kind() != std::io::ErrorKind::NotFound => Err(self.err(p, x)),
+            _ => Ok(()),
+        };
+        // The state first: without it nothing left behind is resumed.
+        remove(&self.dir.join("state.json"))?;
+        remove(&self.dir.join("state.json.tmp"))?;
+        let entries = match std::fs::read_dir(&self.dir) {
+            Ok(r) => r,
+            Err(x) if x.kind() == std::io::ErrorKind::NotFound => return Ok(()),
+            Err(x) => return Err(self.err(&self.dir, x)),
+        };
+        for entry in entries {
+            let entry = entry.map_err(|x| self.err(&self.dir, x))?;
+            let name = entry.file_name();
+            let name = name.to_string_lossy();
+            let stem = name
+                .strip_suffix(".bin")
+                .or_else(|| name.strip_suffix(".bin.tmp"))
+                .and_then(|s| s.strip_prefix("ensemble-"));
+            if stem.is_some_and(|s| !s.is_empty() && s.bytes().all(|b| b.is_ascii_digit())) {
+                remove(&entry.path())?;
+            }
+        }
+        Ok(())
+    }
+
+    /// Appends the new steps of each chain (continuing each file's checksum
+    /// in `sums`), then replaces the state file.
+    fn save(
+        &self,
+        fingerprint: &str,
+        chunks: u64,
+        chains: &[Chain],
+        from_step: usize,
+        sums: &mut [u64],
+    ) -> Result<(), SampleError> {
         std::fs::create_dir_all(&self.dir).map_err(|x| self.err(&self.dir, x))?;
+        let mut files = Vec::with_capacity(chains.len());
         for (e, c) in chains.iter().enumerate() {
             let p = self.chain_path(e);
             let mut f = OpenOptions::new()
@@ -460,9 +712,22 @@ impl Checkpoint {
             }
             f.write_all(&bytes).map_err(|x| self.err(&p, x))?;
             f.sync_data().map_err(|x| self.err(&p, x))?;
+            sums[e] = fnv1a(sums[e], &bytes);
+            files.push(FileSum {
+                bytes: (c.steps() * c.walkers() * (c.dim() + 1) * 8) as u64,
+                fnv1a: format!("{:016x}", sums[e]),
+            });
         }
+        let state = State {
+            version: FORMAT_VERSION,
+            fingerprint: fingerprint.to_string(),
+            steps: chains[0].steps(),
+            chunks,
+            accepted: chains.iter().map(|c| c.accepted().to_vec()).collect(),
+            files,
+        };
         let tmp = self.dir.join("state.json.tmp");
-        let text = serde_json::to_string(state).expect("state serialises");
+        let text = serde_json::to_string(&state).expect("state serialises");
         {
             let mut f = File::create(&tmp).map_err(|x| self.err(&tmp, x))?;
             f.write_all(text.as_bytes())
@@ -484,13 +749,8 @@ fn fingerprint(
     scale: &[f64],
     extra: &str,
 ) -> String {
-    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
-    let mut eat = |bytes: &[u8]| {
-        for b in bytes {
-            h ^= *b as u64;
-            h = h.wrapping_mul(0x0100_0000_01b3);
-        }
-    };
+    let mut h = FNV_OFFSET;
+    let mut eat = |bytes: &[u8]| h = fnv1a(h, bytes);
     eat(&seed.to_le_bytes());
     // The budget is left out: a run may be resumed with a larger one.
     let s = settings;
@@ -534,12 +794,17 @@ pub fn sample_posterior<D: LogDensity>(
         dir: d.to_path_buf(),
     });
     let restored = match &cp {
-        Some(cp) => cp.load(&fp, walkers, dim)?,
-        None => None,
+        Some(cp) => cp.restore(&fp, walkers, dim, settings.ensembles),
+        None => Restored::Missing,
     };
     let sampler = EnsembleSampler::new(StretchMove::default());
-    let (mut chains, mut ensembles, mut chunks) = match restored {
-        Some((state, chains)) if state.steps > 0 => {
+    let (status, mut chains, mut ensembles, mut chunks, mut sums) = match restored {
+        Restored::Resumed {
+            steps,
+            chunks,
+            chains,
+            sums,
+        } => {
             let ensembles: Vec<Ensemble> = chains
                 .iter()
                 .map(|c| {
@@ -550,23 +815,34 @@ pub fn sample_posterior<D: LogDensity>(
                     )
                 })
                 .collect();
-            (chains, ensembles, state.chunks)
+            (
+                CheckpointStatus::Resumed { steps },
+                chains,
+                ensembles,
+                chunks,
+                sums,
+            )
         }
-        _ => {
+        fresh => {
+            let status = match (&cp, fresh) {
+                (None, _) => CheckpointStatus::None,
+                (Some(_), Restored::Discarded(reason)) => CheckpointStatus::Discarded { reason },
+                (Some(_), _) => CheckpointStatus::Fresh,
+            };
             if let Some(cp) = &cp {
-                // A fresh run: old chain files are stale.
-                for e in 0..settings.ensembles {
-                    let _ = std::fs::remove_file(cp.chain_path(e));
-                }
+                // A fresh run: whatever the folder holds is stale.
+                cp.clear()?;
             }
             let ensembles = (0..settings.ensembles)
                 .into_par_iter()
                 .map(|e| start(density, center, scale, walkers, seed, e))
                 .collect::<Result<Vec<_>, _>>()?;
             (
+                status,
                 vec![Chain::new(walkers, dim); settings.ensembles],
                 ensembles,
                 0,
+                vec![FNV_OFFSET; settings.ensembles],
             )
         }
     };
@@ -614,13 +890,7 @@ pub fn sample_posterior<D: LogDensity>(
         }
         chunks += 1;
         if let Some(cp) = &cp {
-            let state = State {
-                fingerprint: fp.clone(),
-                steps: chains[0].steps(),
-                chunks,
-                accepted: chains.iter().map(|c| c.accepted().to_vec()).collect(),
-            };
-            cp.save(&state, &chains, steps)?;
+            cp.save(&fp, chunks, &chains, steps, &mut sums)?;
         }
     }
     let steps = chains[0].steps();
@@ -661,6 +931,7 @@ pub fn sample_posterior<D: LogDensity>(
         converged,
         evaluations: (steps * walkers * settings.ensembles) as u64,
         wall_time: clock.elapsed().as_secs_f64(),
+        checkpoint: status,
     })
 }
 
@@ -781,8 +1052,12 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let part = run(Some(dir.path()), 150);
         assert_eq!(part.steps(), 150);
-        run(Some(dir.path()), 400);
+        assert_eq!(part.checkpoint, CheckpointStatus::Fresh);
+        let more = run(Some(dir.path()), 400);
+        assert_eq!(more.checkpoint, CheckpointStatus::Resumed { steps: 150 });
         let resumed = run(Some(dir.path()), 20_000);
+        assert_eq!(resumed.checkpoint, CheckpointStatus::Resumed { steps: 400 });
+        assert_eq!(whole.checkpoint, CheckpointStatus::None);
         assert_eq!(resumed.chains, whole.chains);
         assert_eq!(resumed.burn, whole.burn);
         assert_eq!(resumed.summaries(), whole.summaries());
@@ -791,5 +1066,287 @@ mod tests {
             (whole.ess.clone(), whole.rhat.clone())
         );
         assert_eq!(resumed.evaluations, whole.evaluations);
+    }
+
+    // The checkpoint tests: 4 ensembles of 32 walkers in 3 dimensions, so a
+    // step is 32 * 4 * 8 = 1024 bytes of each chain file.
+    const RECORD: usize = 32 * 4 * 8;
+
+    fn run_small(dir: Option<&Path>, max: usize, seed: u64) -> PosteriorSample {
+        let s = SampleSettings::default()
+            .with_chunk(50)
+            .unwrap()
+            .with_max_steps(max)
+            .unwrap();
+        sample_posterior(
+            &gaussian(),
+            &names(),
+            &[1.0, -1.0, 0.0],
+            &[0.2, 1.0, 3.0],
+            &s,
+            seed,
+            dir,
+            "",
+            &mut |_| {},
+        )
+        .unwrap()
+    }
+
+    fn assert_same(a: &PosteriorSample, b: &PosteriorSample) {
+        assert_eq!(a.chains, b.chains);
+        assert_eq!(a.burn, b.burn);
+        assert_eq!(a.summaries(), b.summaries());
+        assert_eq!((&a.tau, &a.ess, &a.rhat), (&b.tau, &b.ess, &b.rhat));
+        assert_eq!(a.acceptance, b.acceptance);
+        assert_eq!((a.converged, a.evaluations), (b.converged, b.evaluations));
+    }
+
+    fn discarded(s: &PosteriorSample) -> &str {
+        match &s.checkpoint {
+            CheckpointStatus::Discarded { reason } => reason,
+            other => panic!("expected a discarded checkpoint, got {other:?}"),
+        }
+    }
+
+    /// A folder named `checkpoint` inside a temporary one, holding a
+    /// 200-step run (seed 9) that is to be continued to 300 steps.
+    fn checkpointed() -> (tempfile::TempDir, PathBuf) {
+        let d = tempfile::tempdir().unwrap();
+        let cp = d.path().join("checkpoint");
+        let first = run_small(Some(&cp), 200, 9);
+        assert_eq!(first.checkpoint, CheckpointStatus::Fresh);
+        for e in 0..4 {
+            let len = std::fs::metadata(cp.join(format!("ensemble-{e}.bin")))
+                .unwrap()
+                .len();
+            assert_eq!(len, (200 * RECORD) as u64);
+        }
+        (d, cp)
+    }
+
+    fn patch(path: &Path, offset: usize, bytes: &[u8]) {
+        let mut data = std::fs::read(path).unwrap();
+        data[offset..offset + bytes.len()].copy_from_slice(bytes);
+        std::fs::write(path, data).unwrap();
+    }
+
+    /// After a run of 300 steps the chain files hold exactly its 300 steps.
+    fn assert_files_hold(cp: &Path, sample: &PosteriorSample) {
+        for (e, c) in sample.chains.iter().enumerate() {
+            let data = std::fs::read(cp.join(format!("ensemble-{e}.bin"))).unwrap();
+            assert_eq!(data.len(), c.steps() * RECORD, "ensemble-{e}.bin");
+            let mut want = Vec::new();
+            for s in 0..c.steps() {
+                for w in 0..c.walkers() {
+                    for v in c.get(s, w) {
+                        want.extend_from_slice(&v.to_le_bytes());
+                    }
+                }
+                for w in 0..c.walkers() {
+                    want.extend_from_slice(&c.log_prob_at(s, w).to_le_bytes());
+                }
+            }
+            assert!(data == want, "ensemble-{e}.bin differs from the chain");
+        }
+    }
+
+    #[test]
+    fn garbage_in_a_chain_file_discards_the_checkpoint() {
+        let fresh = run_small(None, 300, 9);
+        let (_d, cp) = checkpointed();
+        // 0xff... is a NaN: the old code read it and gave NaN means.
+        patch(&cp.join("ensemble-0.bin"), 100 * RECORD + 40, &[0xff; 3000]);
+        let again = run_small(Some(&cp), 300, 9);
+        let reason = discarded(&again);
+        assert!(
+            reason.contains("checkpoint/ensemble-0.bin")
+                && reason.contains("checksum of the first 200 steps"),
+            "{reason}"
+        );
+        assert!(again.summaries().iter().all(|s| s.mean.is_finite()));
+        assert_same(&again, &fresh);
+        assert_files_hold(&cp, &again);
+    }
+
+    #[test]
+    fn a_block_copied_within_a_chain_file_discards_the_checkpoint() {
+        let fresh = run_small(None, 300, 9);
+        let (_d, cp) = checkpointed();
+        let p = cp.join("ensemble-1.bin");
+        let data = std::fs::read(&p).unwrap();
+        // Ten valid steps copied over ten others: every value stays finite.
+        patch(&p, 120 * RECORD, &data[10 * RECORD..20 * RECORD]);
+        let again = run_small(Some(&cp), 300, 9);
+        let reason = discarded(&again);
+        assert!(
+            reason.contains("checkpoint/ensemble-1.bin") && reason.contains("file corrupted"),
+            "{reason}"
+        );
+        assert_same(&again, &fresh);
+    }
+
+    #[test]
+    fn a_truncated_chain_file_is_discarded_and_left_as_it_is() {
+        let fresh = run_small(None, 300, 9);
+        let (_d, cp) = checkpointed();
+        let p = cp.join("ensemble-2.bin");
+        let f = OpenOptions::new().write(true).open(&p).unwrap();
+        f.set_len((120 * RECORD + 17) as u64).unwrap();
+        drop(f);
+        // Inspecting the checkpoint leaves the file as it is.
+        let fp = {
+            let s = SampleSettings::default().with_chunk(50).unwrap();
+            fingerprint(9, &s, &names(), &[1.0, -1.0, 0.0], &[0.2, 1.0, 3.0], "")
+        };
+        let c = Checkpoint { dir: cp.clone() };
+        assert!(matches!(
+            c.restore(&fp, 32, 3, 4),
+            Restored::Discarded(r) if r.contains("checkpoint/ensemble-2.bin") && r.contains("truncated")
+        ));
+        assert_eq!(
+            std::fs::metadata(&p).unwrap().len(),
+            (120 * RECORD + 17) as u64
+        );
+        // The run starts afresh (the old code zero-extended the file and
+        // failed on it forever).
+        let again = run_small(Some(&cp), 300, 9);
+        assert!(
+            discarded(&again).contains("truncated"),
+            "{:?}",
+            again.checkpoint
+        );
+        assert_same(&again, &fresh);
+        assert_files_hold(&cp, &again);
+    }
+
+    #[test]
+    fn a_checkpoint_of_another_run_is_discarded() {
+        let (_d, cp) = checkpointed();
+        let other = run_small(Some(&cp), 300, 10);
+        let reason = discarded(&other);
+        assert!(reason.contains("another configuration"), "{reason}");
+        assert_same(&other, &run_small(None, 300, 10));
+        assert_files_hold(&cp, &other);
+    }
+
+    #[test]
+    fn a_garbage_or_old_state_file_is_discarded() {
+        let fresh = run_small(None, 300, 9);
+        let (_d, cp) = checkpointed();
+        let state = cp.join("state.json");
+        let good = std::fs::read_to_string(&state).unwrap();
+        std::fs::write(&state, "\u{0}\u{7}garbage{").unwrap();
+        let again = run_small(Some(&cp), 300, 9);
+        let reason = discarded(&again);
+        assert!(
+            reason.contains("checkpoint/state.json is not valid JSON"),
+            "{reason}"
+        );
+        assert_same(&again, &fresh);
+        // A state without a format version (as the previous format wrote).
+        let (_d2, cp) = checkpointed();
+        let mut v: serde_json::Value = serde_json::from_str(&good).unwrap();
+        v.as_object_mut().unwrap().remove("version");
+        std::fs::write(cp.join("state.json"), v.to_string()).unwrap();
+        let again = run_small(Some(&cp), 300, 9);
+        assert!(
+            discarded(&again).contains("no checkpoint format version"),
+            "{:?}",
+            again.checkpoint
+        );
+        assert_same(&again, &fresh);
+    }
+
+    #[test]
+    fn non_finite_values_under_a_matching_checksum_are_discarded() {
+        let fresh = run_small(None, 300, 9);
+        let (_d, cp) = checkpointed();
+        // A NaN position, with the state's checksum forged to match it.
+        let p = cp.join("ensemble-3.bin");
+        patch(&p, 150 * RECORD + 8, &f64::NAN.to_le_bytes());
+        let sum = fnv1a(FNV_OFFSET, &std::fs::read(&p).unwrap());
+        let state = cp.join("state.json");
+        let mut v: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&state).unwrap()).unwrap();
+        v["files"][3]["fnv1a"] = format!("{sum:016x}").into();
+        std::fs::write(&state, v.to_string()).unwrap();
+        let again = run_small(Some(&cp), 300, 9);
+        let reason = discarded(&again);
+        assert!(
+            reason.contains("checkpoint/ensemble-3.bin: position at step 150 is not finite"),
+            "{reason}"
+        );
+        assert_same(&again, &fresh);
+    }
+
+    /// A run killed after appending a chunk but before replacing the state
+    /// (here: the files of a 250-step run, one with half a step more, under
+    /// the state of the 200-step run) resumes from the state and drops the
+    /// extra bytes by writing a new file.
+    #[test]
+    fn steps_appended_after_the_state_are_dropped_and_the_run_resumes() {
+        let whole = run_small(None, 300, 9);
+        let (d, cp) = checkpointed();
+        let ahead = d.path().join("ahead");
+        run_small(Some(&ahead), 250, 9);
+        for e in 0..4 {
+            let name = format!("ensemble-{e}.bin");
+            let mut data = std::fs::read(ahead.join(&name)).unwrap();
+            if e == 2 {
+                data.extend_from_slice(&[0xab; RECORD / 2]);
+            }
+            // Written beside and renamed in, so that the tests do not share
+            // an inode with the folder they read.
+            std::fs::write(cp.join("new.bin"), &data).unwrap();
+            std::fs::rename(cp.join("new.bin"), cp.join(&name)).unwrap();
+        }
+        // A second name for the old file sees whether it is changed in place.
+        let link = d.path().join("link.bin");
+        std::fs::hard_link(cp.join("ensemble-2.bin"), &link).unwrap();
+        let resumed = run_small(Some(&cp), 300, 9);
+        assert_eq!(resumed.checkpoint, CheckpointStatus::Resumed { steps: 200 });
+        assert_eq!(
+            std::fs::metadata(&link).unwrap().len(),
+            (250 * RECORD + RECORD / 2) as u64,
+            "the file was truncated in place"
+        );
+        assert_same(&resumed, &whole);
+        assert_files_hold(&cp, &resumed);
+        assert!(!cp.join("ensemble-2.bin.tmp").exists());
+    }
+
+    /// A fresh start deletes every chain file and the state, whatever the
+    /// index, before writing its own.
+    #[test]
+    fn a_fresh_start_removes_every_old_chain_file() {
+        let (_d, cp) = checkpointed();
+        std::fs::write(cp.join("ensemble-7.bin"), [1u8; 10]).unwrap();
+        std::fs::write(cp.join("ensemble-11.bin.tmp"), [1u8; 10]).unwrap();
+        std::fs::write(cp.join("notes.txt"), "kept").unwrap();
+        std::fs::write(cp.join("state.json"), "{}").unwrap();
+        let again = run_small(Some(&cp), 100, 9);
+        assert!(discarded(&again).contains("state.json"));
+        let mut names: Vec<String> = std::fs::read_dir(&cp)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        names.sort();
+        assert_eq!(
+            names,
+            [
+                "ensemble-0.bin",
+                "ensemble-1.bin",
+                "ensemble-2.bin",
+                "ensemble-3.bin",
+                "notes.txt",
+                "state.json"
+            ]
+        );
+        assert_files_hold(&cp, &again);
+        // And the status serialises as documented.
+        assert_eq!(
+            serde_json::to_value(&CheckpointStatus::Resumed { steps: 3 }).unwrap(),
+            serde_json::json!({"status": "resumed", "steps": 3})
+        );
     }
 }

@@ -37,6 +37,10 @@ pub struct ParamSpec {
     /// A physically meaningful change of the parameter, in its unit: the
     /// yardstick reports use to judge a posterior sd.
     pub scale: f64,
+    /// How a record shows the parameter (which feature of the acceleration
+    /// it changes): the identifiability report's physical explanation.
+    /// Empty when not declared.
+    pub shows: String,
 }
 
 impl ParamSpec {
@@ -51,6 +55,7 @@ impl ParamSpec {
             neutral,
             meaning: String::new(),
             scale: 0.1 * (bounds.1 - bounds.0),
+            shows: String::new(),
         }
     }
 
@@ -69,6 +74,12 @@ impl ParamSpec {
     /// With a physical scale.
     pub fn scale(mut self, s: f64) -> Self {
         self.scale = s;
+        self
+    }
+
+    /// With how a record shows it.
+    pub fn shows(mut self, s: &str) -> Self {
+        self.shows = s.to_string();
         self
     }
 }

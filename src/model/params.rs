@@ -130,6 +130,23 @@ impl ParamName {
         ParamSpec::new(self.as_str(), self.unit(), self.bounds(), neutral)
             .meaning(self.meaning())
             .scale(self.scale())
+            .shows(self.shows())
+    }
+
+    /// How a record shows the parameter: the feature of the acceleration
+    /// it changes.
+    pub fn shows(self) -> &'static str {
+        match self {
+            ParamName::U0 => "it sets the release displacement and so the amplitude of the whole record",
+            ParamName::Uy => "it sets where the rubber bearings yield: the elastic branch after each reversal is 2 uy wide",
+            ParamName::UF0 => "it sets the constant part of the friction force, F_F0 = uF0 k0, seen as the acceleration jump at every reversal",
+            ParamName::RF0 => "it makes the friction force grow with the displacement, F_F = (uF0 + rF0 |u|) k0; it changes the jump at a reversal in proportion to the amplitude there, so the record shows it only through how the jumps change from cycle to cycle",
+            ParamName::Zeta0 => "it sets the viscous force c u', largest mid-swing at peak velocity, and with friction the decay of the amplitude",
+            ParamName::F0 => "it sets the elastic stiffness: the slope of the acceleration right after each reversal",
+            ParamName::F1 => "it sets the first post-yield stiffness, which governs the period of the large swings",
+            ParamName::F2 => "it sets the stiffness beyond u3, active only while the swing passes u3",
+            ParamName::U3 => "it sets where the third branch starts; it is seen only if the swing passes it",
+        }
     }
 
     /// Parse a paper symbol.

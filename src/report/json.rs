@@ -5,7 +5,7 @@ use std::collections::BTreeMap;
 
 use serde::Serialize;
 
-use crate::data::Aligned;
+use crate::data::{Aligned, Warning};
 use crate::inference::identifiability::ParamIdentifiability;
 use crate::inference::{MapEstimate, Noise, ParamSummary, PolishReport};
 use crate::model::physical::Physical;
@@ -129,6 +129,9 @@ pub struct FitReport {
     /// Posterior of the Table 8.2 quantities (when forces were given).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub physical: Option<BTreeMap<String, ParamSummary>>,
+    /// What makes this result probably wrong (empty when nothing does):
+    /// codes and meanings in `docs/cli.md`.
+    pub warnings: Vec<Warning>,
 }
 
 /// A correlation matrix with its names.
@@ -167,6 +170,10 @@ pub struct SamplingInfo {
     pub chains: Vec<String>,
     /// Wall time of the sampling in this process (s).
     pub wall_time_s: f64,
+    /// What became of the checkpoint: `{"status": "none" | "fresh"}`,
+    /// `{"status": "resumed", "steps": N}` or `{"status": "discarded",
+    /// "reason": "..."}` (a corrupted or foreign checkpoint, not resumed).
+    pub checkpoint: crate::inference::CheckpointStatus,
 }
 
 impl FitReport {
@@ -221,6 +228,7 @@ impl FitReport {
             sampling: None,
             physical_map: None,
             physical: None,
+            warnings: Vec::new(),
         }
     }
 
@@ -273,10 +281,33 @@ impl FitReport {
                 evaluations: s.evaluations,
                 chains,
                 wall_time_s: s.wall_time,
+                checkpoint: s.checkpoint.clone(),
             });
         }
         r.physical_map = fit.physical_map;
         r.physical = fit.physical.as_ref().map(|v| v.iter().cloned().collect());
+        r.warnings = crate::report::sanity::fit_warnings(
+            &names,
+            &fit.map.theta,
+            fit.map.eval.e2,
+            fit.posterior.priors(),
+        );
+        if let Some(s) = &fit.sample {
+            let worst = s.rhat.iter().copied().fold(f64::NAN, f64::max);
+            if !s.converged || worst > 1.1 {
+                r.warnings.push(Warning {
+                    code: "not-converged".into(),
+                    message: format!(
+                        "the posterior run {} (largest R-hat {worst:.3}): intervals may be wrong; raise --max-steps",
+                        if s.converged {
+                            "reached its autocorrelation target but the ensembles disagree"
+                        } else {
+                            "ended on its step budget before the chain was long enough"
+                        }
+                    ),
+                });
+            }
+        }
         r
     }
 }

@@ -5,3 +5,5 @@ pub mod csv;
 #[cfg(feature = "figures")]
 pub mod figures;
 pub mod json;
+pub mod outdir;
+pub mod sanity;
