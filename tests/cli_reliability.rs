@@ -505,6 +505,39 @@ fn odd_records_give_an_error_or_a_warning_that_names_the_problem() {
         "{t0_late} vs {t0_clean}"
     );
     assert!(e2_late < 1.5 * e2_clean, "e2 {e2_late} vs clean {e2_clean}");
+    // diagnose on the noise record: no "no missing effect" verdict.
+    let o = hbis(
+        d.path(),
+        &[
+            "diagnose",
+            "--data",
+            "noise.csv",
+            "--model",
+            "bilinear+coulomb",
+            "--out",
+            "diag-noise",
+        ],
+    );
+    no_panic(&o);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(d.path().join("diag-noise/diagnosis.json")).unwrap(),
+    )
+    .unwrap();
+    let verdict = v["verdict"].as_str().unwrap();
+    assert!(!verdict.contains("no missing effect"), "{verdict}");
+    assert!(verdict.contains("explains only"), "{verdict}");
+    assert!(v["conclusion"]
+        .as_str()
+        .unwrap()
+        .starts_with("No conclusion"));
+    let codes: Vec<&str> = v["warnings"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|w| w["code"].as_str().unwrap())
+        .collect();
+    assert!(codes.contains(&"explains-nothing"), "{codes:?}");
     let (o, codes) = fit("bom.csv", &[]);
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(codes.is_empty(), "{codes:?}");
