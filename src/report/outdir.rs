@@ -213,20 +213,8 @@ impl OutDir {
     {
         let name = &format!("{}{name}", self.prefix);
         let path = self.root.join(name);
-        if let Some(parent) = path.parent() {
-            fs::create_dir_all(parent).map_err(io_err("cannot create folder", parent))?;
-        }
-        let tmp = temporary(&path);
-        if let Err(e) = make(&tmp) {
-            let _ = fs::remove_file(&tmp);
-            return Err(OutError::Io {
-                action: "cannot write",
-                path: path.display().to_string(),
-                source: io::Error::other(e),
-            });
-        }
-        let bytes = fs::read(&tmp).map_err(io_err("cannot read back", &tmp))?;
-        fs::rename(&tmp, &path).map_err(io_err("cannot rename into place", &path))?;
+        write_path_atomic(&path, &[], make)?;
+        let bytes = fs::read(&path).map_err(io_err("cannot read back", &path))?;
         self.stale.remove(name);
         self.written.retain(|f| &f.name != name);
         self.written.push(FileEntry {
@@ -356,16 +344,11 @@ fn write_synced(path: &Path, bytes: &[u8]) -> Result<(), OutError> {
 /// Writes a single output file atomically (a temporary file beside it,
 /// then a rename), refusing to write over one of `inputs`.
 pub fn write_file_atomic(path: &Path, inputs: &[&Path], bytes: &[u8]) -> Result<(), OutError> {
-    refuse_same_file(path, inputs)?;
-    if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
-        fs::create_dir_all(parent).map_err(io_err("cannot create folder", parent))?;
-    }
-    let tmp = temporary(path);
-    if let Err(e) = write_synced(&tmp, bytes) {
-        let _ = fs::remove_file(&tmp);
-        return Err(e);
-    }
-    fs::rename(&tmp, path).map_err(io_err("cannot rename into place", path))
+    write_path_atomic(path, inputs, |tmp| {
+        let mut f = File::create(tmp)?;
+        f.write_all(bytes)?;
+        f.sync_all()
+    })
 }
 
 /// Writes a single output file atomically through `make`, which creates
