@@ -409,6 +409,11 @@ fn odd_records_give_an_error_or_a_warning_that_names_the_problem() {
     let ms: Vec<f64> = t.iter().map(|x| 1e3 * x).collect();
     write("ms.csv", &ms, &a);
     write("mm.csv", &t, &a.iter().map(|v| 1e3 * v).collect::<Vec<_>>());
+    write(
+        "g.csv",
+        &t,
+        &a.iter().map(|v| v / 9.80665).collect::<Vec<_>>(),
+    );
     let noise: Vec<f64> = (0..t.len())
         .map(|i| 0.1 * (((i * 7919 + 13) % 101) as f64 / 50.0 - 1.0))
         .collect();
@@ -467,6 +472,7 @@ fn odd_records_give_an_error_or_a_warning_that_names_the_problem() {
     };
     warned("ms.csv", "sampling-interval");
     warned("mm.csv", "acceleration-units");
+    warned("g.csv", "acceleration-units");
     warned("noise.csv", "no-release");
     warned("noise.csv", "explains-nothing");
     warned("glitch-late.csv", "outliers");
@@ -505,6 +511,32 @@ fn odd_records_give_an_error_or_a_warning_that_names_the_problem() {
         "{t0_late} vs {t0_clean}"
     );
     assert!(e2_late < 1.5 * e2_clean, "e2 {e2_late} vs clean {e2_clean}");
+    // A prior that excludes the truth (f0 0.56 Hz): the fit says so.
+    std::fs::write(
+        d.path().join("far.json"),
+        r#"{"f0": {"dist": "uniform", "lower": 1.5, "upper": 2.0}}"#,
+    )
+    .unwrap();
+    let mut far = vec![
+        "fit", "--data", "held.csv", "--out", "out-far", "--prior", "far.json",
+    ];
+    far.extend_from_slice(&QUICK);
+    far.push("1");
+    let o = hbis(d.path(), &far);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(d.path().join("out-far/fit.json")).unwrap())
+            .unwrap();
+    let far_codes: Vec<&str> = v["warnings"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|w| w["code"].as_str().unwrap())
+        .collect();
+    assert!(
+        far_codes.contains(&"at-bound") || far_codes.contains(&"explains-nothing"),
+        "{far_codes:?}"
+    );
     // diagnose on the noise record: no "no missing effect" verdict.
     let o = hbis(
         d.path(),
