@@ -455,7 +455,7 @@ mod tests {
 
         let in_mm = map(&rec, |_, a| a * 1000.0);
         let msg = only(&in_mm, "acceleration-units");
-        assert!(msg.contains("is above the 0.05000 to 50.00 m/s^2"), "{msg}");
+        assert!(msg.contains("is above the 0.1500 to 50.00 m/s^2"), "{msg}");
         assert!(msg.contains("--accel-units mm/s2"), "{msg}");
         let back = in_mm.in_units("mm/s2".parse().unwrap()).unwrap();
         assert!(codes(&back).is_empty());
