@@ -1,7 +1,7 @@
 //! `hbis diagnose` and `hbis ladder`: where the model fails and which
 //! physical effect is missing.
 
-use std::io::{IsTerminal, Write};
+use std::io::Write;
 use std::path::PathBuf;
 
 use anyhow::{Context, Result};
@@ -144,6 +144,11 @@ pub fn diagnose(a: Args) -> Result<()> {
     a.noise()?;
     let mut dir = OutDir::open(&out, &[&a.data], "diagnose")?;
     let (model, data, noise, choice, warnings) = load(&a)?;
+    let _ = writeln!(
+        std::io::stderr(),
+        "fitting {}, then refitting it with each catalog candidate (multi-start)...",
+        model.name()
+    );
     let settings = MapSettings::default();
     let (fit, diagnosis, ranked) = diagnose_model(
         &Registry::builtin(),
@@ -283,11 +288,8 @@ pub fn ladder_steps(
     seed: u64,
     max_steps: usize,
 ) -> Result<Vec<Step>> {
-    let live = std::io::stderr().is_terminal();
+    // A line per step on stderr (a ladder runs for minutes).
     let mut report = |s: &Step| {
-        if !live {
-            return;
-        }
         let next = match s.candidates.iter().find(|c| c.accepted) {
             Some(c) => format!("adding {}", c.effect),
             None => "no effect added".to_string(),
