@@ -331,6 +331,29 @@ fn sizes_are_refused_before_any_work() {
     }
 }
 
+/// An --out that cannot be a folder is refused before any computation.
+#[test]
+fn an_unusable_output_folder_is_refused_before_the_work() {
+    let d = tempfile::tempdir().unwrap();
+    record(d.path());
+    std::fs::write(d.path().join("afile"), "x").unwrap();
+    for cmd in ["fit", "diagnose", "ladder"] {
+        let mut args = vec![cmd, "--data", "rec.csv", "--out", "afile/out"];
+        if cmd != "fit" {
+            args.extend_from_slice(&["--model", "bilinear+coulomb"]);
+        }
+        let o = hbis(d.path(), &args);
+        no_panic(&o);
+        assert_eq!(o.status.code(), Some(2), "{cmd}: {}", stderr(&o));
+        let e = stderr(&o);
+        assert!(e.contains("afile/out"), "{cmd}: {e}");
+        assert!(
+            !e.contains("MAP after") && !e.contains("release at"),
+            "{cmd}: {e}"
+        );
+    }
+}
+
 #[cfg(target_os = "linux")]
 #[test]
 fn a_full_standard_output_is_an_error_not_a_panic() {
