@@ -1,5 +1,9 @@
 //! Laplace's approximation of the log-evidence (used to rank effects) against
 //! transitional MCMC on a real posterior.
+//!
+//! Unlike `tests/evidence_analytic.rs`, no exact value is known here: the
+//! posterior is only piecewise smooth, and Laplace's Gaussian approximation
+//! of it has an error of its own, which this test bounds.
 
 use hbis::criticism::{fit_model, priors_for};
 use hbis::data::synthesize;
@@ -7,6 +11,14 @@ use hbis::inference::tmcmc::{tmcmc, TmcmcSettings};
 use hbis::inference::{MapSettings, Noise, Posterior};
 use hbis::model::{ForwardModel, Model, ModelSpec, Params};
 use rand::{rngs::StdRng, SeedableRng};
+
+/// Independent TMCMC runs.
+const SEEDS: u64 = 3;
+
+/// The sd of one TMCMC run's `ln Z` on this posterior with the settings
+/// below, measured over seeds 0 to 8: 5938.85, 5938.16, 5940.70, 5939.23,
+/// 5938.69, 5939.95, 5939.84, 5940.11, 5938.71 (mean 5939.36).
+const RUN_SD: f64 = 0.83;
 
 #[test]
 fn laplace_evidence_agrees_with_tmcmc() {
@@ -46,12 +58,14 @@ fn laplace_evidence_agrees_with_tmcmc() {
     // TMCMC under-estimates ln Z when its Metropolis moves mix too little
     // (here 5930 with 2,000 particles and 3 steps, 5932 with 4,000 and 10);
     // 8,000 particles with 20 steps per stage are needed on this posterior.
+    // With these settings, on the same likelihood for a linear model, it is
+    // within 0.03 +- 0.03 nat of the exact value (`tests/evidence_analytic.rs`).
     let settings = TmcmcSettings {
         particles: 8000,
         steps: 20,
         scale: 0.2,
     };
-    let runs: Vec<f64> = (0..2)
+    let runs: Vec<f64> = (0..SEEDS)
         .map(|seed| {
             let mut rng = StdRng::seed_from_u64(seed);
             let r = tmcmc(&ln_like, &lower, &upper, &settings, &mut rng);
@@ -62,20 +76,27 @@ fn laplace_evidence_agrees_with_tmcmc() {
             r.log_evidence
         })
         .collect();
-    let spread = (runs[0] - runs[1]).abs();
-    let mean = 0.5 * (runs[0] + runs[1]);
+    let k = SEEDS as f64;
+    let mean = runs.iter().sum::<f64>() / k;
+    let sd = (runs.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (k - 1.0)).sqrt();
+    let laplace = fit.log_evidence;
+    // Laplace's own error, on a posterior that is only piecewise smooth, is
+    // allowed 1 nat: what model ranking needs (the effects the ladder adds
+    // change ln Z by hundreds); a Hessian through the MAP's own value is 6
+    // nats low here. TMCMC's Monte Carlo error adds 3 standard errors of
+    // the mean of the runs: 1 + 3 * 0.83 / sqrt(3) = 2.44 nats.
+    let tolerance = 1.0 + 3.0 * RUN_SD / k.sqrt();
     eprintln!(
-        "Laplace ln Z = {:.2}; TMCMC {:.2} (two runs differ by {spread:.2})",
-        fit.log_evidence, mean
+        "Laplace ln Z = {laplace:.2}; TMCMC {mean:.2} (sd {sd:.2} over {SEEDS} runs); \
+         |difference| {:.2}, allowed {tolerance:.2}",
+        (laplace - mean).abs()
     );
-    // TMCMC's own error is of order its run-to-run spread; Laplace adds the
-    // error of a Gaussian approximation to a posterior that is only
-    // piecewise smooth (measured: 0.95 nat). Agreement within a nat is what
-    // model ranking needs (the effects the ladder adds change ln Z by
-    // hundreds); a Hessian through the MAP's own value is 6 nats low here.
+    // The runs must scatter as measured for that error to hold: their sd
+    // below 2 nats, 2.4 times RUN_SD (by chance with probability
+    // exp(-(2 / 0.83)^2) = 0.3 %).
+    assert!(sd < 2.0, "TMCMC runs scatter: {runs:?}");
     assert!(
-        (fit.log_evidence - mean).abs() < 1.0 + 2.0 * spread,
-        "Laplace {} vs TMCMC {mean}",
-        fit.log_evidence
+        (laplace - mean).abs() < tolerance,
+        "Laplace {laplace} vs TMCMC {mean}: allowed {tolerance}"
     );
 }

@@ -9,8 +9,10 @@
 //!
 //! Moves sit behind the small [`Move`] trait: [`StretchMove`] (the default,
 //! `a = 2`) and [`DeMove`] (differential evolution, ter Braak 2006; emcee's
-//! `DEMove`). Both pass the same statistical test (Gaussian moments and an
-//! acceptance band) in this module's tests.
+//! `DEMove`). Both, and a half-and-half mixture of them, pass the same
+//! statistical tests in this module's tests: a correlated Gaussian's
+//! moments with an acceptance band, and the Rosenbrock density's moments
+//! from independent runs, each within four Monte Carlo standard errors.
 //!
 //! Why not a crate: no maintained Rust crate implements emcee's sampler with
 //! pluggable moves and a seeded, thread-count-independent stream of random
@@ -518,6 +520,44 @@ mod tests {
     use nalgebra::{DMatrix, DVector};
     use rand::{rngs::StdRng, SeedableRng};
 
+    /// Moves mixed by weight, as emcee's `moves=[(StretchMove(), 0.5),
+    /// (DEMove(), 0.5)]`, for these tests. emcee draws one move per step;
+    /// [`Move`] proposes per walker, so here each proposal uses `first` with
+    /// probability `weight`, else `second`, with that move's own Hastings
+    /// factor. Each component's Metropolis-Hastings kernel leaves the target
+    /// invariant and the choice does not depend on the state, so the
+    /// mixture does too.
+    #[derive(Debug, Clone, Copy)]
+    struct Mixture<A, B> {
+        first: A,
+        second: B,
+        weight: f64,
+    }
+
+    impl<A: Move, B: Move> Move for Mixture<A, B> {
+        fn propose<R: Rng + ?Sized>(
+            &self,
+            walker: &[f64],
+            complement: &[&[f64]],
+            rng: &mut R,
+        ) -> (Vec<f64>, f64) {
+            if rng.random::<f64>() < self.weight {
+                self.first.propose(walker, complement, rng)
+            } else {
+                self.second.propose(walker, complement, rng)
+            }
+        }
+    }
+
+    /// Stretch and differential evolution, half and half.
+    fn mixture() -> Mixture<StretchMove, DeMove> {
+        Mixture {
+            first: StretchMove::default(),
+            second: DeMove::default(),
+            weight: 0.5,
+        }
+    }
+
     /// A 10-D Gaussian with condition number 1e4 and strong correlations:
     /// covariance `Q diag(lambda) Q^T`, `lambda` log-spaced over 1e-2..1e2.
     fn correlated_gaussian() -> (DMatrix<f64>, DMatrix<f64>) {
@@ -557,20 +597,26 @@ mod tests {
         let n = ((steps - burn) * walkers) as f64;
         let acc = chain.acceptance_fraction();
         assert!(acc > acceptance.0 && acc < acceptance.1, "acceptance {acc}");
+        let mut worst: f64 = 0.0;
+        let mut min_ess = f64::INFINITY;
         for k in 0..d {
             let tau = integrated_time(&chain.series(k, burn), 5.0);
             let ess = n / tau;
+            min_ess = min_ess.min(ess);
             let x: Vec<f64> = chain.series(k, burn).concat();
             let mean = x.iter().sum::<f64>() / n;
             let var = x.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / n;
             let sd = cov[(k, k)].sqrt();
+            let var_se = cov[(k, k)] * (2.0 / ess).sqrt();
+            worst = worst
+                .max(mean.abs() / (sd / ess.sqrt()))
+                .max((var - cov[(k, k)]).abs() / var_se);
             // 4.5 standard errors: with 10 means and 10 variances the chance
             // that any exceeds it by luck is below 1e-4.
             assert!(
                 mean.abs() < 4.5 * sd / ess.sqrt(),
                 "mean[{k}] = {mean}, sd {sd}, ess {ess}"
             );
-            let var_se = cov[(k, k)] * (2.0 / ess).sqrt();
             assert!(
                 (var - cov[(k, k)]).abs() < 4.5 * var_se,
                 "var[{k}] = {var} vs {}, ess {ess}",
@@ -601,6 +647,8 @@ mod tests {
         let tau = integrated_time(&chain.series(bi, burn), 5.0)
             .max(integrated_time(&chain.series(bj, burn), 5.0));
         let se = ((cov[(bi, bi)] * cov[(bj, bj)] + cov[(bi, bj)].powi(2)) * tau / n).sqrt();
+        worst = worst.max((cij - cov[(bi, bj)]).abs() / se);
+        eprintln!("acceptance {acc:.3}, smallest ess {min_ess:.0}, largest |error|/se {worst:.2}");
         assert!(
             (cij - cov[(bi, bj)]).abs() < 4.5 * se,
             "cov[{bi},{bj}] = {cij} vs {}",
@@ -619,50 +667,146 @@ mod tests {
         gaussian_moments(DeMove::default(), 8_000, (0.15, 0.5));
     }
 
-    /// The 2-D Rosenbrock density of Goodman & Weare (2010):
-    /// `p ~ exp(-(100 (x2 - x1^2)^2 + (1 - x1)^2)/20)`. Its marginal moments
-    /// follow in closed form: `x1 ~ N(1, 10)`, `x2 | x1 ~ N(x1^2, 0.1)`, so
-    /// `E x2 = 11`, `Var x2 = 0.1 + E x1^4 - 11^2 = 0.1 + 421 - 121 = 300.1`.
     #[test]
-    fn stretch_move_reproduces_rosenbrock_marginals() {
+    fn mixed_moves_sample_a_correlated_gaussian() {
+        gaussian_moments(mixture(), 10_000, (0.15, 0.5));
+    }
+
+    /// The 2-D Rosenbrock density of Goodman & Weare (2010),
+    /// `p ~ exp(-(100 (x2 - x1^2)^2 + (1 - x1)^2)/20)`, in closed form:
+    ///
+    /// ```text
+    /// ln p = -(x1 - 1)^2 / (2 * 10) - (x2 - x1^2)^2 / (2 * 0.1)
+    ///   =>  x1 ~ N(1, 10),  x2 | x1 ~ N(x1^2, 0.1)
+    /// E x1^2 = 1 + 10 = 11
+    /// E x1^3 = 1 + 3 * 1 * 10 = 31                      (mu^3 + 3 mu s^2)
+    /// E x1^4 = 1 + 6 * 1 * 10 + 3 * 10^2 = 361          (mu^4 + 6 mu^2 s^2 + 3 s^4)
+    /// E x2   = E x1^2 = 11
+    /// Var x2 = E Var(x2|x1) + Var E(x2|x1) = 0.1 + E x1^4 - (E x1^2)^2
+    ///        = 0.1 + 361 - 121 = 240.1
+    /// Cov(x1, x2) = E[(x1 - 1) x1^2] = E x1^3 - E x1^2 = 31 - 11 = 20
+    /// ```
+    ///
+    /// `[E x1, E (x1-1)^2, E x2, E (x2-11)^2, E (x1-1)(x2-11)]`.
+    const ROSENBROCK: [f64; 5] = [1.0, 10.0, 11.0, 240.1, 20.0];
+
+    /// One run on the Rosenbrock density from walkers drawn exactly from it
+    /// (`x1 ~ N(1, 10)`, `x2 ~ N(x1^2, 0.1)`), its [`ROSENBROCK`]
+    /// statistics averaged over all steps and walkers (moments about the
+    /// true means, so that each run's estimate is unbiased).
+    fn rosenbrock_run<Mv: Move>(
+        sampler: &EnsembleSampler<Mv>,
+        seed: u64,
+        steps: usize,
+    ) -> [f64; 5] {
         let density = FnDensity::new(2, |x: &[f64]| {
             -(100.0 * (x[1] - x[0] * x[0]).powi(2) + (1.0 - x[0]).powi(2)) / 20.0
         });
-        let mut rng = StdRng::seed_from_u64(5);
+        let mut rng = StdRng::seed_from_u64(seed);
         let walkers = 64;
         let start: Vec<Vec<f64>> = (0..walkers)
             .map(|_| {
-                let x: f64 = 1.0 + rng.sample::<f64, _>(StandardNormal);
-                vec![x, x * x + 0.1 * rng.sample::<f64, _>(StandardNormal)]
+                let x1 = 1.0 + 10f64.sqrt() * rng.sample::<f64, _>(StandardNormal);
+                let x2 = x1 * x1 + 0.1f64.sqrt() * rng.sample::<f64, _>(StandardNormal);
+                vec![x1, x2]
             })
             .collect();
         let mut ens = Ensemble::new(&density, start).unwrap();
-        let steps = 40_000;
-        let chain = EnsembleSampler::new(StretchMove::default())
-            .run(&mut ens, &density, steps, &mut rng)
-            .unwrap();
-        let burn = 4000;
-        let n = ((steps - burn) * walkers) as f64;
-        let check = |k: usize, mean_true: f64, var_true: f64, kurt_factor: f64| {
-            let tau = integrated_time(&chain.series(k, burn), 5.0);
-            let ess = n / tau;
-            let x = chain.series(k, burn).concat();
-            let mean = x.iter().sum::<f64>() / n;
-            let var = x.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / n;
-            assert!(
-                (mean - mean_true).abs() < 4.5 * (var_true / ess).sqrt(),
-                "mean[{k}] {mean}, ess {ess}"
+        let chain = sampler.run(&mut ens, &density, steps, &mut rng).unwrap();
+        let mut sums = [0.0; 5];
+        for p in chain.samples().chunks(2) {
+            let (a, b) = (p[0] - 1.0, p[1] - 11.0);
+            for (s, v) in sums.iter_mut().zip([p[0], a * a, p[1], b * b, a * b]) {
+                *s += v;
+            }
+        }
+        sums.map(|s| s / (steps * walkers) as f64)
+    }
+
+    /// The second shared statistical test, run for every move: the Rosenbrock
+    /// density's [`ROSENBROCK`] moments from `RUNS` independent runs, seeded
+    /// from `first_seed` on (a different range per move, so that the moves'
+    /// tests do not share their starts).
+    ///
+    /// Each run starts from exact draws of the density, and the ensemble's
+    /// stationary law is the product of the density over walkers, so every
+    /// run's averages are unbiased for a correct sampler whatever the run's
+    /// length, and the Monte Carlo standard error of their mean over runs is
+    /// the runs' sd / sqrt(RUNS): it includes the autocorrelation and the heavy
+    /// tail of x2 without modelling either. (The stretch move's integrated time
+    /// here is 1,000-2,000 steps: the 40,000-step single run this test replaces
+    /// was some 20 of them, and four seeds of it gave Var x2 from 146 to 219
+    /// against 240.1.) Every statistic must lie within 4 standard errors of the
+    /// truth. x2's variance has a skewed sampling law (run-level skewness 2,
+    /// excess kurtosis 7): resampling 512 measured runs in groups of 128 puts
+    /// the chance of a |t| beyond 4 by luck at about 1e-3 for Var x2 and below
+    /// 2e-4 for the others. The error itself must be small too (4 se within 5 %
+    /// of the marginal sd for the means, within 25 % of the value for the
+    /// second moments; measured: 1-3 % and 3-18 %), so that a sampler whose runs
+    /// scatter widely does not pass by widening its own tolerance. Each run is
+    /// 20,000 steps (10-20 integrated times), long enough for a sampler that
+    /// leaves the density only nearly invariant to drift away: a wrong exponent
+    /// in the stretch move's `z`, `dim ln z` or `(dim - 2) ln z` for its
+    /// factor, a differential-evolution step towards a walker instead of along
+    /// a difference, or a tempered acceptance ratio each move some statistic by
+    /// more than 4 se.
+    fn rosenbrock_moments<Mv: Move>(mv: Mv, first_seed: u64) {
+        const RUNS: usize = 128;
+        let steps = 20_000;
+        let sampler = EnsembleSampler::new(mv);
+        let runs: Vec<[f64; 5]> = (0..RUNS as u64)
+            .into_par_iter()
+            .map(|r| rosenbrock_run(&sampler, first_seed + r, steps))
+            .collect();
+        let names = ["E x1", "Var x1", "E x2", "Var x2", "Cov(x1, x2)"];
+        // The cap on 4 se: 5 % of sd(x1) = sqrt(10), of sd(x2) = sqrt(240.1),
+        // 25 % of each second moment.
+        let cap = [
+            0.05 * 10f64.sqrt(),
+            0.25 * 10.0,
+            0.05 * 240.1f64.sqrt(),
+            0.25 * 240.1,
+            0.25 * 20.0,
+        ];
+        for k in 0..5 {
+            let v: Vec<f64> = runs.iter().map(|r| r[k]).collect();
+            let mean = v.iter().sum::<f64>() / RUNS as f64;
+            let sd = (v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (RUNS - 1) as f64).sqrt();
+            let se = sd / (RUNS as f64).sqrt();
+            let truth = ROSENBROCK[k];
+            eprintln!(
+                "{}: {mean:.4} vs {truth} (se {se:.4}, {:+.2} se)",
+                names[k],
+                (mean - truth) / se
             );
-            // The variance estimate's error grows with the kurtosis.
-            let var_se = var_true * (kurt_factor / ess).sqrt();
             assert!(
-                (var - var_true).abs() < 4.5 * var_se,
-                "var[{k}] {var} vs {var_true}, ess {ess}"
+                4.0 * se < cap[k],
+                "{}: Monte Carlo error too large (4 se = {} > {})",
+                names[k],
+                4.0 * se,
+                cap[k]
             );
-        };
-        check(0, 1.0, 10.0, 2.0);
-        // x2 is heavy-tailed: (mu4 - sigma^4)/sigma^4 is about 20 for it.
-        check(1, 11.0, 300.1, 20.0);
+            assert!(
+                (mean - truth).abs() < 4.0 * se,
+                "{}: {mean} vs {truth}, se {se}",
+                names[k]
+            );
+        }
+    }
+
+    #[test]
+    fn stretch_move_reproduces_rosenbrock_moments() {
+        rosenbrock_moments(StretchMove::default(), 1000);
+    }
+
+    #[test]
+    fn de_move_reproduces_rosenbrock_moments() {
+        rosenbrock_moments(DeMove::default(), 2000);
+    }
+
+    #[test]
+    fn mixed_moves_reproduce_rosenbrock_moments() {
+        rosenbrock_moments(mixture(), 3000);
     }
 
     #[test]
