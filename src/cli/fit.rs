@@ -92,14 +92,6 @@ pub fn run(a: Args) -> Result<()> {
         (Some(f), Some(s)) => Some((f, s)),
         _ => None,
     };
-    if !a.map_only {
-        check_sampler_size(
-            Posterior::<Model>::names_for(&model, noise).len(),
-            a.walkers,
-            a.ensembles,
-            a.max_steps,
-        )?;
-    }
     let mut sample = SampleSettings::default()
         .with_ensembles(a.ensembles)
         .context("--ensembles")?
@@ -109,6 +101,10 @@ pub fn run(a: Args) -> Result<()> {
         .context("--max-steps")?;
     if let Some(w) = a.walkers {
         sample = sample.with_walkers(w).context("--walkers")?;
+    }
+    if !a.map_only {
+        let dim = Posterior::<Model>::names_for(&model, noise).len();
+        check_sampler_size(dim, sample.walkers_for(dim), a.ensembles, a.max_steps)?;
     }
     let options = FitOptions {
         seed: a.seed,
@@ -189,16 +185,7 @@ pub const MAX_CHAIN_BYTES: f64 = 8.0 * 1024.0 * 1024.0 * 1024.0;
 
 /// Refuses, before the MAP, a sampler the stretch move cannot run (fewer
 /// than `2 dim` walkers) or whose chains could not fit in memory.
-fn check_sampler_size(
-    dim: usize,
-    walkers: Option<usize>,
-    ensembles: usize,
-    max_steps: usize,
-) -> Result<()> {
-    let w = walkers.unwrap_or_else(|| {
-        let n = 32.max(4 * dim);
-        n + n % 2
-    });
+fn check_sampler_size(dim: usize, w: usize, ensembles: usize, max_steps: usize) -> Result<()> {
     if w < 2 * dim {
         anyhow::bail!(
             "--walkers {w}: the model has {dim} parameters and the stretch move needs at least 2 x {dim} = {} walkers per ensemble",

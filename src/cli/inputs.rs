@@ -76,13 +76,6 @@ pub fn record(path: &Path, how: &RecordArgs, t0: Option<f64>) -> Result<(Aligned
         (raw.clone(), Vec::new())
     };
     let data = record.aligned(t0).with_context(within)?;
-    if !data.energy().is_finite() {
-        let peak = data.a.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-        anyhow::bail!(
-            "in record {}: column `a`: values up to {peak:e} m/s^2 are too large to fit (their squares overflow); check the record's scale",
-            path.display()
-        );
-    }
     let mut warnings = record_warnings(&raw, &data);
     if !dropped.is_empty() {
         let rows: Vec<String> = dropped.iter().map(|o| o.row.to_string()).collect();

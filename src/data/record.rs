@@ -112,6 +112,13 @@ pub enum RecordError {
         last_row: usize,
         value: f64,
     },
+    /// The acceleration is too large to square: every fit would overflow.
+    #[error("rows {first_row}-{last_row}, column `a`: values up to {peak:e} m/s^2 are too large to fit (their squares overflow); check the record's scale")]
+    TooLarge {
+        first_row: usize,
+        last_row: usize,
+        peak: f64,
+    },
     /// A row asked for ([`Record::without_samples`]) holds no sample.
     #[error("row {row} holds no sample of the record (its samples are on rows {first}-{last})")]
     NoSuchRow {
@@ -694,6 +701,13 @@ impl Record {
                 first_row: self.rows[first],
                 last_row: self.rows[self.len() - 1],
                 value: after[0],
+            });
+        }
+        if !after.iter().map(|v| v * v).sum::<f64>().is_finite() {
+            return Err(RecordError::TooLarge {
+                first_row: self.rows[first],
+                last_row: self.rows[self.len() - 1],
+                peak: after.iter().fold(0.0f64, |m, v| m.max(v.abs())),
             });
         }
         let t0 = t0.unwrap_or(t[0]).min(t[0]);

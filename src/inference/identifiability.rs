@@ -223,6 +223,16 @@ fn share(effect: &[f64], flags: &[bool]) -> f64 {
     part / total
 }
 
+/// Fraction of the samples flagged.
+fn fraction(flags: &[bool]) -> f64 {
+    flags.iter().filter(|f| **f).count() as f64 / flags.len().max(1) as f64
+}
+
+/// A share that sets the weakest apart: 10 points above the others' median.
+fn stands_out(own: f64, median: f64) -> bool {
+    own.is_finite() && median.is_finite() && own > median + 0.10
+}
+
 /// Median of the finite values (NaN if none).
 fn median(mut v: Vec<f64>) -> f64 {
     v.retain(|x| x.is_finite());
@@ -370,9 +380,8 @@ fn near_reversals(c: &Context, w: usize) -> Option<String> {
     let seg = c.segments?;
     let own = c.params[w].1.near_reversal_share;
     let med = c.others(w, |k| c.params[k].1.near_reversal_share);
-    let frac = seg.near_reversal.iter().filter(|n| **n).count() as f64
-        / seg.near_reversal.len().max(1) as f64;
-    (own.is_finite() && med.is_finite() && own > med + 0.10).then(|| {
+    let frac = fraction(&seg.near_reversal);
+    stands_out(own, med).then(|| {
         format!(
             "{:.0} % of its information comes from the {:.1} % of samples within two steps of a reversal, where friction makes the acceleration jump (median over the other parameters: {:.0} %).",
             100.0 * own,
@@ -389,18 +398,16 @@ fn by_phase(c: &Context, w: usize) -> Option<String> {
     let mut kinds: Vec<&String> = seg.phase.iter().collect();
     kinds.sort();
     kinds.dedup();
-    let share_in = |k: usize, kind: &str| {
-        let flags: Vec<bool> = seg.phase.iter().map(|p| p == kind).collect();
-        share(&c.effects[k], &flags)
-    };
+    let flags_of = |kind: &str| -> Vec<bool> { seg.phase.iter().map(|p| p == kind).collect() };
     let (kind, own) = kinds
         .iter()
-        .map(|kind| (kind.as_str(), share_in(w, kind)))
+        .map(|kind| (kind.as_str(), share(&c.effects[w], &flags_of(kind))))
         .filter(|(_, v)| v.is_finite())
         .max_by(|a, b| a.1.total_cmp(&b.1))?;
-    let med = c.others(w, |k| share_in(k, kind));
-    let samples = seg.phase.iter().filter(|p| *p == kind).count() as f64 / seg.phase.len() as f64;
-    (own > med + 0.10).then(|| {
+    let flags = flags_of(kind);
+    let med = c.others(w, |k| share(&c.effects[k], &flags));
+    let samples = fraction(&flags);
+    stands_out(own, med).then(|| {
         format!(
             "{:.0} % of its information comes from the {kind} phase ({:.0} % of the samples), against a median of {:.0} % for the others.",
             100.0 * own,
@@ -425,7 +432,7 @@ fn first_half_cycles(c: &Context, w: usize) -> Option<String> {
         ),
         _ => String::new(),
     };
-    (own.is_finite() && med.is_finite() && own > med + 0.10).then(|| {
+    stands_out(own, med).then(|| {
         format!(
             "{:.0} % of its information comes from the first two half-cycles{amp}, against a median of {:.0} % for the others: it shows only at the largest amplitudes.",
             100.0 * own,
@@ -459,8 +466,12 @@ fn unexercised_branch(c: &Context, w: usize) -> Option<String> {
         // The reading with u3 just above the yield: the second branch is a
         // narrow band of displacement.
         let uy = c.index("uy").map(|k| c.summaries[k].mean)?;
-        let on = seg.phase.iter().filter(|p| *p == "plastic2").count() as f64
-            / seg.phase.len().max(1) as f64;
+        let on = fraction(
+            &seg.phase
+                .iter()
+                .map(|p| p == "plastic2")
+                .collect::<Vec<_>>(),
+        );
         if on >= 0.10 {
             return Some(format!(
                 "The fit reads the spring with u3 = {:.4} m (90 % [{:.4}, {:.4}] m) below the largest swing {swing:.4} m: the second branch, where f1 acts, is the band from uy = {uy:.4} m to u3 and holds {:.1} % of the samples, and where it ends is itself uncertain.",

@@ -170,7 +170,8 @@ impl SampleSettings {
         Ok(self)
     }
 
-    fn walkers_for(&self, dim: usize) -> usize {
+    /// Walkers per ensemble for a posterior of `dim` parameters.
+    pub fn walkers_for(&self, dim: usize) -> usize {
         self.walkers.unwrap_or_else(|| {
             let n = 32.max(4 * dim);
             n + n % 2
