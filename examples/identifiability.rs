@@ -6,7 +6,9 @@
 //! cargo run --release --example identifiability [seed]
 //! ```
 //! Prints each record's ranking (by posterior sd over prior sd), the sd
-//! ratio of every parameter, and the explanation of the weakest.
+//! ratio of every parameter, the explanation of the weakest, and the design
+//! table: how its sd would scale with the record's length, the release
+//! amplitude, the noise and the sampling rate.
 
 use hbis::data::synthesize;
 use hbis::inference::Noise;
@@ -58,6 +60,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             .collect();
         println!("   sd/prior: {}", ratios.join(", "));
         println!("   {}", id.explanation);
+        if let Some(d) = &fit.design {
+            let rows: Vec<String> = d
+                .rows
+                .iter()
+                .map(|r| format!("{} x{}: {:.0} %", r.knob, r.factor, 100.0 * r.sd_ratio))
+                .collect();
+            println!("   design ({}): {}", d.parameter, rows.join(", "));
+            println!("   {}", d.summary);
+        }
     }
     Ok(())
 }

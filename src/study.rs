@@ -25,6 +25,7 @@ use rand::SeedableRng;
 use thiserror::Error;
 
 use crate::data::Aligned;
+use crate::inference::design::{design_table, DesignError, DesignInput, DesignTable};
 use crate::inference::identifiability::{self, Identifiability, ParamInfo, Segments};
 use crate::inference::pipeline::{compare, fit_map, laplace_evidence, Comparison, PipelineError};
 use crate::inference::summary::{covariance, ParamSummary};
@@ -56,6 +57,9 @@ pub enum StudyError {
     /// A stage shared with criticism (MAP, release placement, evidence).
     #[error(transparent)]
     Pipeline(#[from] PipelineError),
+    /// The design table.
+    #[error("design table")]
+    Design(#[from] DesignError),
     /// Released force and static friction are inconsistent.
     #[error("physical quantities")]
     Physical(#[from] crate::model::physical::PhysicalError),
@@ -79,6 +83,9 @@ pub struct FitOptions {
     /// Also compute the Laplace log-evidence at the MAP (covariance from a
     /// finite-difference Hessian).
     pub evidence: bool,
+    /// The design table's target for the weakest parameter: its sd as a
+    /// fraction of today's, in (0, 1); `None` for no table.
+    pub design_target: Option<f64>,
 }
 
 impl Default for FitOptions {
@@ -91,6 +98,7 @@ impl Default for FitOptions {
             forces: None,
             label: String::new(),
             evidence: false,
+            design_target: Some(0.5),
         }
     }
 }
@@ -114,6 +122,8 @@ pub struct Fit {
     pub covariance: Option<Vec<Vec<f64>>>,
     /// The identifiability report.
     pub identifiability: Option<Identifiability>,
+    /// What test would determine the weakest parameter to the target.
+    pub design: Option<DesignTable>,
     /// Posterior of `m, k0, k1, k2, kF, c` (Table 8.2 units), if forces were given.
     pub physical: Option<Vec<(String, ParamSummary)>>,
     /// The physical quantities at the MAP, if forces were given.
@@ -179,6 +189,7 @@ pub fn fit_record(
         summaries: None,
         covariance: None,
         identifiability: None,
+        design: None,
         physical: None,
         physical_map,
     };
@@ -229,6 +240,22 @@ pub fn fit_record(
         sigma,
         Some(&segments),
     );
+    if let Some(target) = options.design_target {
+        let w = names.iter().position(|n| n == &ident.weakest).unwrap_or(0);
+        let mean: Vec<f64> = summaries.iter().map(|s| s.mean).collect();
+        let sd: Vec<f64> = summaries.iter().map(|s| s.sd).collect();
+        let input = DesignInput {
+            mean: &mean,
+            sd: &sd,
+            prior_sd: &prior_sd,
+            sigma,
+            parameter: w,
+            unit: &info[w].unit,
+            target_ratio: target,
+            step: 0.2,
+        };
+        fit.design = Some(design_table(&fit.posterior, &input)?);
+    }
     if let Some((f, s)) = options.forces {
         fit.physical = Some(physical_posterior(&fit.posterior, &sample, f, s)?);
     }

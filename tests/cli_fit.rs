@@ -154,6 +154,17 @@ fn fit_json_has_the_documented_keys_and_one_seed_gives_one_result() {
         assert!(a["posterior"]["f0"][k].is_f64(), "posterior.f0.{k}");
     }
     assert_eq!(a["ranking"].as_array().unwrap().len(), 9);
+    let design = &a["identifiability"]["design"];
+    assert_eq!(design["parameter"], a["weakest"]);
+    assert_eq!(design["rows"].as_array().unwrap().len(), 10);
+    let knobs: Vec<&str> = design["scaling"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|s| s["knob"].as_str().unwrap())
+        .collect();
+    assert_eq!(knobs, ["duration", "amplitude", "noise", "rate"]);
+    assert!(a["identifiability"]["f0"]["sd_ratio"].is_f64());
     assert_eq!(a["sampling"]["ensembles"], 4);
     assert_eq!(a["sampling"]["steps"], 300);
     // The chains are CmdStan CSV with lp__ first and one row per kept draw.
@@ -275,6 +286,15 @@ fn bad_records_and_priors_exit_2_naming_row_or_field() {
     let o = hbis_with(d.path(), &["fit", "--data", "missing.csv"], "1");
     assert_eq!(o.status.code(), Some(2));
     assert!(stderr(&o).contains("missing.csv"));
+    for target in ["1.5", "0", "nan"] {
+        let o = hbis_with(
+            d.path(),
+            &["fit", "--data", "rec.csv", "--design-target", target],
+            "1",
+        );
+        assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+        assert!(stderr(&o).contains("--design-target"), "{}", stderr(&o));
+    }
 }
 
 /// A run killed with SIGKILL at random moments and resumed each time ends

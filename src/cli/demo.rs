@@ -160,6 +160,7 @@ fn identify(out: &mut impl Write, dir: &mut OutDir) -> Result<()> {
         forces: Some((RELEASED_FORCE_TEST3, STATIC_FRICTION)),
         label: record_path.display().to_string(),
         evidence: false,
+        design_target: Some(0.5),
     };
     let fit = super::fit::run_fit(
         model.clone(),

@@ -74,6 +74,13 @@ pub struct Args {
     /// fit.json; covariance from a finite-difference Hessian).
     #[arg(long)]
     evidence: bool,
+    /// The design table's target: the weakest parameter's sd as a fraction
+    /// of today's, in (0, 1) (`identifiability.design` in fit.json).
+    #[arg(long, default_value_t = 0.5)]
+    design_target: f64,
+    /// Skip the design table.
+    #[arg(long)]
+    no_design: bool,
 }
 
 pub fn run(a: Args) -> Result<()> {
@@ -88,6 +95,12 @@ pub fn run(a: Args) -> Result<()> {
             .with_context(|| format!("in prior file {}", p.display()))?,
         None => defaults,
     };
+    if !(a.design_target > 0.0 && a.design_target < 1.0) {
+        anyhow::bail!(
+            "--design-target {}: expected a fraction of today's sd in (0, 1), e.g. 0.5",
+            a.design_target
+        );
+    }
     let forces = match (a.released_force, a.static_friction) {
         (Some(f), Some(s)) => Some((f, s)),
         _ => None,
@@ -116,6 +129,7 @@ pub fn run(a: Args) -> Result<()> {
         forces,
         label: a.data.display().to_string(),
         evidence: a.evidence,
+        design_target: (!a.no_design).then_some(a.design_target),
     };
     // The folder is locked and checked before any computation: a busy or
     // unwritable --out costs nothing.
@@ -496,5 +510,42 @@ pub fn print_posterior(out: &mut impl Write, fit: &Fit) -> Result<()> {
         )?;
     }
     writeln!(out, "\n{}", id.explanation)?;
+    if let Some(d) = &fit.design {
+        print_design(out, d)?;
+    }
+    Ok(())
+}
+
+/// The design table of the weakest parameter.
+fn print_design(out: &mut impl Write, d: &hbis::inference::design::DesignTable) -> Result<()> {
+    writeln!(
+        out,
+        "\nWhat would determine {} better (sd today {:.3e} {}, Fisher {:.3e}; target {:.0} %):",
+        d.parameter,
+        d.sd_sampled,
+        d.unit,
+        d.sd_fisher,
+        100.0 * d.target_ratio
+    )?;
+    writeln!(
+        out,
+        "  {:10} {:>7} {:>10} {:>10} {:>9} {:>8} {:>11} {:>8}",
+        "knob", "factor", "length s", "u0 mm", "noise", "rate Hz", "sd", "sd/today"
+    )?;
+    for r in &d.rows {
+        writeln!(
+            out,
+            "  {:10} {:>7.2} {:>10.2} {:>10.2} {:>9.4} {:>8.1} {:>11.3e} {:>7.0}%",
+            r.knob,
+            r.factor,
+            r.design.duration_s,
+            1e3 * r.design.amplitude_m,
+            r.design.noise,
+            r.design.rate_hz,
+            r.sd,
+            100.0 * r.sd_ratio
+        )?;
+    }
+    writeln!(out, "  {}", d.summary)?;
     Ok(())
 }

@@ -4,6 +4,7 @@
 pub mod autocorr;
 pub mod bounds;
 pub mod cmaes;
+pub mod design;
 pub mod diagnostics;
 pub mod ensemble;
 pub mod identifiability;

@@ -6,6 +6,7 @@ use std::collections::BTreeMap;
 use serde::Serialize;
 
 use crate::data::{Aligned, Warning};
+use crate::inference::design::DesignTable;
 use crate::inference::identifiability::ParamIdentifiability;
 use crate::inference::{MapEstimate, Noise, ParamSummary, PolishReport};
 use crate::model::physical::Physical;
@@ -114,9 +115,10 @@ pub struct FitReport {
     /// Why it is weak.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub explanation: Option<String>,
-    /// Per-parameter identifiability numbers.
+    /// Per-parameter identifiability numbers, and under `design` the
+    /// design table of the weakest parameter.
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub identifiability: Option<BTreeMap<String, ParamIdentifiability>>,
+    pub identifiability: Option<IdentifiabilityReport>,
     /// Posterior correlation matrix, rows and columns in `names` order.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub correlation: Option<Correlation>,
@@ -132,6 +134,17 @@ pub struct FitReport {
     /// What makes this result probably wrong (empty when nothing does):
     /// codes and meanings in `docs/cli.md`.
     pub warnings: Vec<Warning>,
+}
+
+/// `identifiability` in fit.json: one entry per parameter, and `design`.
+#[derive(Debug, Clone, Serialize)]
+pub struct IdentifiabilityReport {
+    /// Per parameter, by name.
+    #[serde(flatten)]
+    pub params: BTreeMap<String, ParamIdentifiability>,
+    /// What test would determine the weakest parameter to the target.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub design: Option<DesignTable>,
 }
 
 /// A correlation matrix with its names.
@@ -256,7 +269,10 @@ impl FitReport {
             r.ranking = Some(id.ranking.clone());
             r.weakest = Some(id.weakest.clone());
             r.explanation = Some(id.explanation.clone());
-            r.identifiability = Some(id.params.iter().cloned().collect());
+            r.identifiability = Some(IdentifiabilityReport {
+                params: id.params.iter().cloned().collect(),
+                design: fit.design.clone(),
+            });
         }
         if let Some(c) = &fit.covariance {
             r.correlation = Some(Correlation {
