@@ -5,7 +5,10 @@
 //! A design is the record's length, the release amplitude `u0`, the noise
 //! level and the sampling rate. For each, the model's acceleration is
 //! simulated at the posterior mean on that design's grid, its Jacobian taken
-//! by central differences, and the Gaussian approximation of the posterior
+//! by one-sided differences (the smaller of the two: a friction jump that
+//! crosses a sample within a step makes one side `jump / h`, the
+//! likelihood's staircase, not information), and the Gaussian approximation
+//! of the posterior
 //! `Sigma = (J^T W J / sigma^2 + P)^-1` inverted, with `W` the whitening of
 //! the fitted noise model and `P` the prior's precision (`1/sd_prior^2` on
 //! the diagonal). The table reports each design's sd as the *sampled*
@@ -22,7 +25,7 @@
 //!
 //! # Formula
 //! ```text
-//! J_ik      = (a_i(theta + h_k e_k) - a_i(theta - h_k e_k)) / 2 h_k
+//! J_ik      = minmod((a_i(theta + h e_k) - a_i(theta)) / h, (a_i(theta) - a_i(theta - h e_k)) / h)
 //! white:    F = J^T J / sigma^2
 //! AR(1):    F = J_w^T J_w / (sigma^2 (1 - rho^2)),  (J_w)_ik = J_ik - rho J_(i-1)k
 //! Sigma     = (F + diag(1/sd_prior^2))^-1
@@ -37,7 +40,7 @@
 //! use hbis::inference::design::fisher_sd;
 //!
 //! // One parameter, a_i = theta * x_i with x = (1, 2, 2): F = 9 / sigma^2.
-//! let jac = vec![vec![1.0], vec![2.0], vec![2.0]];
+//! let jac = vec![vec![1.0, 2.0, 2.0]];
 //! let sd = fisher_sd(&jac, 0.3, None, &[f64::INFINITY]).unwrap();
 //! assert!((sd[0] - 0.1).abs() < 1e-12);
 //! ```
@@ -523,7 +526,7 @@ mod tests {
 
     #[test]
     fn singular_information_is_none() {
-        let jac = vec![vec![1.0, 2.0], vec![2.0, 4.0]];
+        let jac = vec![vec![1.0, 2.0], vec![2.0, 5.0]];
         assert!(fisher_sd(&jac, 1.0, None, &[f64::INFINITY; 2]).is_some());
         let jac = vec![vec![1.0, 2.0], vec![2.0, 4.0]];
         assert!(fisher_sd(&jac, 1.0, None, &[f64::INFINITY; 2]).is_none());
