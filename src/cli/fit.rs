@@ -58,9 +58,18 @@ pub struct Args {
     /// Independent ensembles (for R-hat; at least 2).
     #[arg(long, default_value_t = 4)]
     ensembles: usize,
-    /// Run until the kept chain is this many autocorrelation times long.
+    /// Run until the kept chain is this many autocorrelation times long
+    /// (and at least 50, for the estimate to be trusted).
     #[arg(long, default_value_t = 50.0)]
     tau_multiple: f64,
+    /// Run until the smallest effective sample size reaches N (instead of
+    /// --tau-multiple).
+    #[arg(long)]
+    ess: Option<f64>,
+    /// Sampler moves mixed by weight, e.g. `stretch`, `gaussian:0.8,stretch:0.2`
+    /// (`stretch`, `de`, `gaussian`).
+    #[arg(long, default_value = hbis::inference::sample::DEFAULT_MOVES)]
+    moves: String,
     /// Budget: most steps per ensemble.
     #[arg(long, default_value_t = 20_000)]
     max_steps: usize,
@@ -115,6 +124,12 @@ pub fn run(a: Args) -> Result<()> {
     if let Some(w) = a.walkers {
         sample = sample.with_walkers(w).context("--walkers")?;
     }
+    if let Some(n) = a.ess {
+        sample = sample.with_ess(n).context("--ess")?;
+    }
+    let moves = hbis::inference::ensemble::Moves::parse(&a.moves)
+        .map_err(|e| anyhow::anyhow!("--moves `{}`: {e}", a.moves))?;
+    sample = sample.with_moves(moves);
     if !a.map_only {
         let dim = Posterior::<Model>::names_for(&model, noise).len();
         check_sampler_size(dim, sample.walkers_for(dim), a.ensembles, a.max_steps)?;
@@ -441,9 +456,9 @@ pub fn print_posterior(out: &mut impl Write, fit: &Fit) -> Result<()> {
         sample.evaluations,
         sample.wall_time,
         if sample.converged {
-            "converged (chain longer than the requested autocorrelation times)"
+            "converged (chain long enough, split R-hat <= 1.01)".to_string()
         } else {
-            "NOT converged: budget spent before the chain reached the requested autocorrelation times"
+            format!("NOT converged: {}", sample.not_converged)
         }
     )?;
     writeln!(

@@ -44,7 +44,7 @@ use thiserror::Error;
 
 use super::autocorr::integrated_time;
 use super::diagnostics::split_rhat;
-use super::ensemble::{Chain, Ensemble, EnsembleSampler, LogDensity, SamplerError, StretchMove};
+use super::ensemble::{Chain, Ensemble, EnsembleSampler, LogDensity, Moves, SamplerError};
 use super::summary::ParamSummary;
 
 /// Why posterior sampling failed.
@@ -80,7 +80,20 @@ pub struct SampleSettings {
     tau_multiple: f64,
     burn_multiple: f64,
     max_steps: usize,
+    ess: Option<f64>,
+    moves: Moves,
 }
+
+/// The autocorrelation time is trusted only from a chain this many of its
+/// own estimates long (emcee's guidance): shorter, the estimate is biased
+/// low and grows with the chain.
+pub const TAU_TRUSTED: f64 = 50.0;
+
+/// Largest split R-hat of a converged run.
+pub const RHAT_MAX: f64 = 1.01;
+
+/// The default moves (chosen by measurement: `docs/inference.md`).
+pub const DEFAULT_MOVES: &str = "gaussian:0.8,stretch:0.2";
 
 impl Default for SampleSettings {
     fn default() -> Self {
@@ -91,6 +104,8 @@ impl Default for SampleSettings {
             tau_multiple: 50.0,
             burn_multiple: 5.0,
             max_steps: 20_000,
+            ess: None,
+            moves: Moves::parse(DEFAULT_MOVES).expect("valid default moves"),
         }
     }
 }
@@ -170,6 +185,30 @@ impl SampleSettings {
         Ok(self)
     }
 
+    /// Stop by effective sample size instead of chain length: once the
+    /// smallest ESS reaches `n` (and the stop rule's other conditions hold).
+    pub fn with_ess(mut self, n: f64) -> Result<Self, SampleError> {
+        if !(n >= 1.0 && n.is_finite()) {
+            return Err(SampleError::Setting {
+                name: "ess",
+                reason: "must be a finite number >= 1",
+            });
+        }
+        self.ess = Some(n);
+        Ok(self)
+    }
+
+    /// The moves, mixed by weight.
+    pub fn with_moves(mut self, moves: Moves) -> Self {
+        self.moves = moves;
+        self
+    }
+
+    /// The moves.
+    pub fn moves(&self) -> &Moves {
+        &self.moves
+    }
+
     /// Walkers per ensemble for a posterior of `dim` parameters.
     pub fn walkers_for(&self, dim: usize) -> usize {
         self.walkers.unwrap_or_else(|| {
@@ -242,8 +281,14 @@ pub struct PosteriorSample {
     pub rhat: Vec<f64>,
     /// Acceptance fraction per ensemble.
     pub acceptance: Vec<f64>,
-    /// Whether the run reached `tau_multiple` autocorrelation times.
+    /// Whether the stop rule held: the kept chain at least `tau_multiple`
+    /// (and [`TAU_TRUSTED`]) autocorrelation times long, or the ESS target
+    /// reached, and split R-hat at most [`RHAT_MAX`] on every parameter.
     pub converged: bool,
+    /// Why the run is not converged (empty when it is).
+    pub not_converged: String,
+    /// The moves, as `name:weight` joined by commas.
+    pub moves: String,
     /// Log-density evaluations by the sampler over the whole run (resumed
     /// parts included; the starting ensembles not counted).
     pub evaluations: u64,
@@ -756,8 +801,8 @@ fn fingerprint(
     // The budget is left out: a run may be resumed with a larger one.
     let s = settings;
     eat(format!(
-        "{:?} {} {} {} {}",
-        s.walkers, s.ensembles, s.chunk, s.tau_multiple, s.burn_multiple
+        "{:?} {} {} {} {} {:?} {}",
+        s.walkers, s.ensembles, s.chunk, s.tau_multiple, s.burn_multiple, s.ess, s.moves
     )
     .as_bytes());
     for n in names {
@@ -798,7 +843,7 @@ pub fn sample_posterior<D: LogDensity>(
         Some(cp) => cp.restore(&fp, walkers, dim, settings.ensembles),
         None => Restored::Missing,
     };
-    let sampler = EnsembleSampler::new(StretchMove::default());
+    let sampler = EnsembleSampler::new(settings.moves.clone());
     let (status, mut chains, mut ensembles, mut chunks, mut sums) = match restored {
         Restored::Resumed {
             steps,
@@ -853,18 +898,17 @@ pub fn sample_posterior<D: LogDensity>(
         Some(c) if c < chains[0].steps() => max_tau_range(&chains, c / 2, c),
         _ => f64::NAN,
     };
-    let mut converged = false;
+    let mut verdict = Verdict::default();
     loop {
         let steps = chains[0].steps();
         if is_check(steps, settings.chunk) {
             tau_max = max_tau(&chains, steps / 2);
-            let burn = burn_in(tau_max, settings, steps);
-            if (steps - burn) as f64 >= settings.tau_multiple * tau_max {
-                converged = true;
-            }
+            verdict = stop_rule(&chains, tau_max, settings, steps);
         }
+        let converged = verdict.converged;
         let target = if tau_max.is_finite() {
-            ((settings.tau_multiple + settings.burn_multiple) * tau_max).ceil() as usize
+            ((settings.tau_multiple.max(TAU_TRUSTED) + settings.burn_multiple) * tau_max).ceil()
+                as usize
         } else {
             settings.max_steps
         };
@@ -897,15 +941,61 @@ pub fn sample_posterior<D: LogDensity>(
     let steps = chains[0].steps();
     let burn = burn_in(tau_max, settings, steps);
     let tau = all_taus(&chains, burn);
-    let kept = (steps - burn) as f64 * walkers as f64;
-    let ess = (0..dim)
+    let ess = ess_of(&tau, steps - burn, walkers, dim);
+    let rhat = rhats(&chains, burn, dim);
+    let (converged, not_converged) = if verdict.converged {
+        (true, String::new())
+    } else if verdict.reason.is_empty() {
+        (
+            false,
+            format!("budget of {steps} steps spent before the first check"),
+        )
+    } else {
+        (
+            false,
+            format!("budget of {steps} steps spent: {}", verdict.reason),
+        )
+    };
+    Ok(PosteriorSample {
+        names: names.to_vec(),
+        acceptance: chains.iter().map(Chain::acceptance_fraction).collect(),
+        chains,
+        burn,
+        tau,
+        ess,
+        rhat,
+        converged,
+        not_converged,
+        moves: settings.moves.to_string(),
+        evaluations: (steps * walkers * settings.ensembles) as u64,
+        wall_time: clock.elapsed().as_secs_f64(),
+        checkpoint: status,
+    })
+}
+
+/// The stop rule's state at the last check.
+#[derive(Debug, Default)]
+struct Verdict {
+    converged: bool,
+    reason: String,
+}
+
+/// Effective sample size per parameter, summed over ensembles.
+fn ess_of(tau: &[Vec<f64>], kept_steps: usize, walkers: usize, dim: usize) -> Vec<f64> {
+    let kept = kept_steps as f64 * walkers as f64;
+    (0..dim)
         .map(|k| tau.iter().map(|t| kept / t[k]).sum())
-        .collect();
-    // R-hat on at most ~20,000 draws per ensemble (evenly thinned steps):
-    // ranks of a million draws per parameter would cost more than they
-    // tell, since consecutive steps are strongly correlated anyway.
+        .collect()
+}
+
+/// Split R-hat per parameter on the kept steps, on at most ~20,000 draws
+/// per ensemble (evenly thinned steps): ranks of a million draws per
+/// parameter would cost more than they tell, since consecutive steps are
+/// strongly correlated anyway.
+fn rhats(chains: &[Chain], burn: usize, dim: usize) -> Vec<f64> {
+    let (steps, walkers) = (chains[0].steps(), chains[0].walkers());
     let stride = ((steps - burn) * walkers / 20_000).max(1);
-    let rhat = (0..dim)
+    (0..dim)
         .into_par_iter()
         .map(|k| {
             let seqs: Vec<Vec<f64>> = chains
@@ -920,20 +1010,64 @@ pub fn sample_posterior<D: LogDensity>(
                 .collect();
             split_rhat(&seqs)
         })
-        .collect();
-    Ok(PosteriorSample {
-        names: names.to_vec(),
-        acceptance: chains.iter().map(Chain::acceptance_fraction).collect(),
-        chains,
-        burn,
-        tau,
-        ess,
-        rhat,
-        converged,
-        evaluations: (steps * walkers * settings.ensembles) as u64,
-        wall_time: clock.elapsed().as_secs_f64(),
-        checkpoint: status,
-    })
+        .collect()
+}
+
+/// The stop rule at a check: the kept chain long enough for its `tau`
+/// estimate to be trusted ([`TAU_TRUSTED`] times it), then either
+/// `tau_multiple` times `tau` long or the ESS target reached, and split
+/// R-hat at most [`RHAT_MAX`] on every parameter. The reason lists every
+/// condition that fails, with its numbers.
+fn stop_rule(chains: &[Chain], tau_max: f64, settings: &SampleSettings, steps: usize) -> Verdict {
+    let burn = burn_in(tau_max, settings, steps);
+    let kept = (steps - burn) as f64;
+    let mut reasons = Vec::new();
+    if !at_least(kept, TAU_TRUSTED * tau_max) {
+        reasons.push(format!(
+            "kept chain {kept:.0} steps, shorter than {TAU_TRUSTED} x the autocorrelation time estimate {tau_max:.1} needed to trust it"
+        ));
+    }
+    let dim = chains[0].dim();
+    match settings.ess {
+        Some(target) => {
+            let tau = all_taus(chains, burn);
+            let ess = ess_of(&tau, steps - burn, chains[0].walkers(), dim);
+            let least = ess.iter().copied().fold(f64::INFINITY, f64::min);
+            if !at_least(least, target) {
+                reasons.push(format!("smallest ESS {least:.0} < {target:.0}"));
+            }
+        }
+        None => {
+            if !at_least(kept, settings.tau_multiple * tau_max) {
+                reasons.push(format!(
+                    "kept chain {kept:.0} steps < {} x tau {tau_max:.1}",
+                    settings.tau_multiple
+                ));
+            }
+        }
+    }
+    // R-hat only once the rest holds: it is the costliest check.
+    if reasons.is_empty() {
+        let worst = rhats(chains, burn, dim).into_iter().fold(0.0f64, |m, r| {
+            if r.is_nan() {
+                f64::INFINITY
+            } else {
+                m.max(r)
+            }
+        });
+        if !at_least(RHAT_MAX, worst) {
+            reasons.push(format!("largest split R-hat {worst:.4} > {RHAT_MAX}"));
+        }
+    }
+    Verdict {
+        converged: reasons.is_empty(),
+        reason: reasons.join("; "),
+    }
+}
+
+/// `a >= b`, false when either is NaN (a condition a NaN cannot meet).
+fn at_least(a: f64, b: f64) -> bool {
+    a >= b
 }
 
 /// Checks fall at `c_0 = chunk`, `c_(i+1) = c_i + max(chunk, c_i/5)`

@@ -167,8 +167,15 @@ pub struct SamplingInfo {
     pub steps: usize,
     /// Burn-in steps discarded.
     pub burn_in: usize,
-    /// Whether the chain exceeded the requested number of autocorrelation times.
+    /// Whether the stop rule held (`docs/inference.md`): the kept chain at
+    /// least 50 and `--tau-multiple` autocorrelation times long (or the
+    /// `--ess` target reached) and split R-hat at most 1.01 everywhere.
     pub converged: bool,
+    /// Why not, with the numbers (absent when converged).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub not_converged: Option<String>,
+    /// The moves and their weights, e.g. `stretch:1`.
+    pub moves: String,
     /// Largest autocorrelation time over ensembles, by parameter (steps).
     pub tau: BTreeMap<String, f64>,
     /// Effective sample size by parameter.
@@ -290,6 +297,8 @@ impl FitReport {
                 steps: s.steps(),
                 burn_in: s.burn,
                 converged: s.converged,
+                not_converged: (!s.converged).then(|| s.not_converged.clone()),
+                moves: s.moves.clone(),
                 tau: by_name(&tau_max),
                 ess: by_name(&s.ess),
                 rhat: by_name(&s.rhat),
@@ -310,16 +319,12 @@ impl FitReport {
         );
         if let Some(s) = &fit.sample {
             let worst = s.rhat.iter().copied().fold(f64::NAN, f64::max);
-            if !s.converged || worst > 1.1 {
+            if !s.converged {
                 r.warnings.push(Warning {
                     code: "not-converged".into(),
                     message: format!(
-                        "the posterior run {} (largest R-hat {worst:.3}): intervals may be wrong; raise --max-steps",
-                        if s.converged {
-                            "reached its autocorrelation target but the ensembles disagree"
-                        } else {
-                            "ended on its step budget before the chain was long enough"
-                        }
+                        "the posterior run is not converged ({}; largest R-hat {worst:.3}): intervals may be wrong; raise --max-steps",
+                        s.not_converged
                     ),
                 });
             }
