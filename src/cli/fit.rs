@@ -535,10 +535,13 @@ pub fn print_posterior(out: &mut impl Write, fit: &Fit) -> Result<()> {
 fn print_design(out: &mut impl Write, d: &hbis::inference::design::DesignTable) -> Result<()> {
     writeln!(
         out,
-        "\nWhat would determine {} better (sd today {:.3e} {}, Fisher {:.3e}; target {:.0} %):",
+        "\nWhat would determine {} better (sd today {:.3e}{}, Fisher {:.3e}; target {:.0} %):",
         d.parameter,
         d.sd_sampled,
-        d.unit,
+        match d.unit.as_str() {
+            "-" | "" => String::new(),
+            u => format!(" {u}"),
+        },
         d.sd_fisher,
         100.0 * d.target_ratio
     )?;
