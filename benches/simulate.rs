@@ -1,5 +1,6 @@
-//! Speed of the closed-form forward model (issue: at most 5 us per
-//! 2,001-sample evaluation, linear growth with the sample count).
+//! Speed of the closed-form forward model (issues: at most 5 us per
+//! 2,001-sample evaluation, linear growth with the sample count; within 2x
+//! of the sampling floor, `floor_2001`, measured beside it).
 
 use std::hint::black_box;
 
@@ -21,6 +22,42 @@ fn record_2001(c: &mut Criterion) {
                 .accel_into(black_box(0.005), &mut out, &opts)
                 .unwrap()
         })
+    });
+}
+
+/// The sampling floor: the least work any sampler of a damped oscillation
+/// does for 2,001 samples, with no events to find. Four interleaved complex
+/// recurrences `z <- lambda^4 z` (the damped rotation over four samples),
+/// each writing its real part, fill the record.
+fn floor_fill(lambda: (f64, f64), z0: (f64, f64), out: &mut [f64]) {
+    let mul = |a: (f64, f64), b: (f64, f64)| (a.0 * b.0 - a.1 * b.1, a.0 * b.1 + a.1 * b.0);
+    let l2 = mul(lambda, lambda);
+    let l4 = mul(l2, l2);
+    let mut z = [z0, mul(z0, lambda), mul(z0, l2), mul(mul(z0, l2), lambda)];
+    let mut chunks = out.chunks_exact_mut(4);
+    for chunk in &mut chunks {
+        for k in 0..4 {
+            chunk[k] = z[k].0;
+            z[k] = mul(z[k], l4);
+        }
+    }
+    for (slot, zk) in chunks.into_remainder().iter_mut().zip(&z) {
+        *slot = zk.0;
+    }
+}
+
+fn floor_2001(c: &mut Criterion) {
+    // Test 5's rubber (f0 0.6 Hz) with zeta0 5 %, sampled at 200 Hz.
+    let (w, zeta, dt) = (2.0 * std::f64::consts::PI * 0.6, 0.05, 0.005);
+    let r = (-zeta * w * dt).exp();
+    let phi = w * (1.0 - zeta * zeta).sqrt() * dt;
+    let lambda = (r * phi.cos(), r * phi.sin());
+    let mut out = vec![0.0; 2001];
+    // Sanity: 10 s at 5 % damping leave a decayed, non-zero oscillation.
+    floor_fill(lambda, (0.05, 0.0), &mut out);
+    assert!(out[2000].abs() < 0.05 && out[2000] != 0.0);
+    c.bench_function("floor_2001", |b| {
+        b.iter(|| floor_fill(black_box(lambda), black_box((0.05, 0.0)), &mut out))
     });
 }
 
@@ -77,5 +114,12 @@ fn forward_model(c: &mut Criterion) {
     });
 }
 
-criterion_group!(benches, record_2001, growth, record_100k, forward_model);
+criterion_group!(
+    benches,
+    floor_2001,
+    record_2001,
+    growth,
+    record_100k,
+    forward_model
+);
 criterion_main!(benches);
