@@ -1080,6 +1080,11 @@ mod tests {
     }
 
     #[test]
+    fn gaussian_move_reproduces_rosenbrock_moments() {
+        rosenbrock_moments(GaussianMove::default(), 5000);
+    }
+
+    #[test]
     fn default_moves_reproduce_rosenbrock_moments() {
         let moves = Moves::parse(crate::inference::sample::DEFAULT_MOVES).unwrap();
         rosenbrock_moments(moves, 4000);
