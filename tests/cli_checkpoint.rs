@@ -75,6 +75,8 @@ fn args(out: &str) -> Vec<&str> {
         "300",
         "--tau-multiple",
         "1000",
+        // A successful run removes its checkpoint unless told to keep it.
+        "--keep-checkpoint",
     ]
 }
 

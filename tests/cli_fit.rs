@@ -176,7 +176,20 @@ fn fit_json_has_the_documented_keys_and_one_seed_gives_one_result() {
     );
     let rows = chain.lines().filter(|l| !l.starts_with('#')).count() - 1;
     let burn = a["sampling"]["burn_in"].as_u64().unwrap() as usize;
-    assert_eq!(rows, (300 - burn) * 20);
+    // Walker-major, every `thin`-th step: half the largest tau by default.
+    let thin = a["sampling"]["thin"].as_u64().unwrap() as usize;
+    let tau_max = a["sampling"]["tau"]
+        .as_object()
+        .unwrap()
+        .values()
+        .map(|t| t.as_f64().unwrap())
+        .fold(0.0, f64::max);
+    assert_eq!(thin, ((tau_max / 2.0) as usize).max(1));
+    assert_eq!(a["sampling"]["chain_layout"], "walker-major");
+    assert_eq!(rows, (300 - burn).div_ceil(thin) * 20);
+    assert!(chain.contains(&format!("#     thin = {thin}\n")));
+    // The checkpoint is gone after a successful run.
+    assert!(!d.path().join("one/checkpoint").exists());
     assert!(stderr(&one).contains("release detected just before the sample at t = 0.4 s"));
     assert!(stderr(&one).contains("release placed by the fit at t0 = "));
 }
@@ -295,6 +308,56 @@ fn bad_records_and_priors_exit_2_naming_row_or_field() {
         assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
         assert!(stderr(&o).contains("--design-target"), "{}", stderr(&o));
     }
+    let o = hbis_with(d.path(), &["fit", "--data", "rec.csv", "--thin", "0"], "1");
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("--thin 0"), "{}", stderr(&o));
+}
+
+/// `--thin 1` writes every kept step, `--keep-checkpoint` leaves the
+/// checkpoint, `--no-chains` writes no chain file.
+#[test]
+fn thin_no_chains_and_keep_checkpoint_do_what_they_say() {
+    let d = tempfile::tempdir().unwrap();
+    record(d.path());
+    let run = |out: &'static str, extra: &[&'static str]| {
+        let mut args = vec![
+            "fit",
+            "--data",
+            "rec.csv",
+            "--model",
+            "bilinear+coulomb+viscous",
+            "--seed",
+            "5",
+            "--out",
+            out,
+            "--max-evals",
+            "3000",
+            "--walkers",
+            "16",
+            "--max-steps",
+            "200",
+            "--no-design",
+        ];
+        args.extend_from_slice(extra);
+        let o = hbis_with(d.path(), &args, "2");
+        assert!(o.status.success(), "{}", stderr(&o));
+        let text = std::fs::read_to_string(d.path().join(out).join("fit.json")).unwrap();
+        serde_json::from_str::<serde_json::Value>(&text).unwrap()
+    };
+    let all = run("all", &["--thin", "1", "--keep-checkpoint"]);
+    let burn = all["sampling"]["burn_in"].as_u64().unwrap() as usize;
+    assert_eq!(all["sampling"]["thin"], 1);
+    let chain = std::fs::read_to_string(d.path().join("all/chains/chain-1.csv")).unwrap();
+    let rows = chain.lines().filter(|l| !l.starts_with('#')).count() - 1;
+    assert_eq!(rows, (200 - burn) * 16);
+    assert!(d.path().join("all/checkpoint/state.json").exists());
+    let none = run("none", &["--no-chains"]);
+    assert_eq!(none["sampling"]["chains"], serde_json::json!([]));
+    assert!(none["sampling"].get("thin").is_none());
+    assert!(!d.path().join("none/chains").exists());
+    assert!(!d.path().join("none/checkpoint").exists());
+    // The same draws behind both: the summaries do not depend on the files.
+    assert_eq!(all["posterior"], none["posterior"]);
 }
 
 /// A run killed with SIGKILL at random moments and resumed each time ends

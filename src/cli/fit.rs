@@ -90,6 +90,45 @@ pub struct Args {
     /// Skip the design table.
     #[arg(long)]
     no_design: bool,
+    #[command(flatten)]
+    chains: ChainArgs,
+}
+
+/// What becomes of the draws and the checkpoint after a fit.
+#[derive(Debug, Clone, clap::Args)]
+pub struct ChainArgs {
+    /// Write every N-th step of the chains (default: half the largest
+    /// autocorrelation time, `sampling.thin` in fit.json; 1 keeps all).
+    #[arg(long, value_name = "N")]
+    pub thin: Option<usize>,
+    /// Write no chain files (fit.json still has the summaries).
+    #[arg(long)]
+    pub no_chains: bool,
+    /// Keep the sampler's checkpoint after a successful run (by default it
+    /// is removed once every output is written; a run that fails keeps it
+    /// to resume from).
+    #[arg(long)]
+    pub keep_checkpoint: bool,
+}
+
+impl ChainArgs {
+    /// The demo's and a default fit's: thinned, chains written, no
+    /// checkpoint left.
+    pub fn default_outputs() -> Self {
+        Self {
+            thin: None,
+            no_chains: false,
+            keep_checkpoint: false,
+        }
+    }
+
+    /// Rejects `--thin 0`.
+    pub fn check(&self) -> Result<()> {
+        if self.thin == Some(0) {
+            anyhow::bail!("--thin 0: expected a whole number of steps >= 1 (1 keeps every step)");
+        }
+        Ok(())
+    }
 }
 
 pub fn run(a: Args) -> Result<()> {
@@ -104,6 +143,7 @@ pub fn run(a: Args) -> Result<()> {
             .with_context(|| format!("in prior file {}", p.display()))?,
         None => defaults,
     };
+    a.chains.check()?;
     if !(a.design_target > 0.0 && a.design_target < 1.0) {
         anyhow::bail!(
             "--design-target {}: expected a fraction of today's sd in (0, 1), e.g. 0.5",
@@ -199,14 +239,39 @@ pub fn run(a: Args) -> Result<()> {
         a.seed,
         noise,
         record_warnings,
+        &a.chains,
     )?;
     inputs::print_warnings(&report.warnings[n_record..]);
+    if !a.chains.keep_checkpoint {
+        drop_checkpoint(&a.out.join("checkpoint"));
+    }
     dir.finish("fit", a.seed, &model.name(), Some(InputEntry::of(&a.data)?))?;
     writeln!(err, "wrote {}", a.out.join("fit.json").display())?;
     if a.json {
         super::print_stdout(&(serde_json::to_string_pretty(&report)? + "\n"))?;
     }
     Ok(())
+}
+
+/// Removes a finished run's checkpoint (the outputs are written, so it is
+/// only weight: 16 MB for the demo). `state.json` goes first, so that an
+/// interrupted removal leaves no checkpoint that could be resumed. A
+/// failure is reported, not fatal: the fit itself is complete.
+pub fn drop_checkpoint(dir: &Path) {
+    let state = dir.join("state.json");
+    let result = match std::fs::remove_file(&state) {
+        Err(e) if e.kind() != std::io::ErrorKind::NotFound => Err(e),
+        _ => match std::fs::remove_dir_all(dir) {
+            Err(e) if e.kind() != std::io::ErrorKind::NotFound => Err(e),
+            _ => Ok(()),
+        },
+    };
+    if let Err(e) = result {
+        eprintln!(
+            "warning: could not remove the checkpoint {}: {e} (the fit is complete; remove it by hand)",
+            dir.display()
+        );
+    }
 }
 
 /// Most memory the chains of one run may take (bytes): 8 GiB.
@@ -299,6 +364,7 @@ pub fn run_fit(
 
 /// Writes fit.json, fit.csv, the chains and the figures into `out`, each
 /// atomically.
+#[allow(clippy::too_many_arguments)]
 pub fn write_outputs(
     fit: &Fit,
     out: &mut OutDir,
@@ -307,20 +373,26 @@ pub fn write_outputs(
     seed: u64,
     noise: Noise,
     record_warnings: Vec<Warning>,
+    chains: &ChainArgs,
 ) -> Result<FitReport> {
     let data = fit.posterior.data();
     let mut chain_files = Vec::new();
-    if let Some(sample) = &fit.sample {
+    let mut thin = None;
+    if let Some(sample) = fit.sample.as_ref().filter(|_| !chains.no_chains) {
+        let every = chains
+            .thin
+            .unwrap_or_else(|| hbis::report::cmdstan::auto_thin(sample));
         for e in 0..sample.chains.len() {
             let name = format!("chains/chain-{}.csv", e + 1);
             out.write_with(&name, |tmp| {
                 let f = std::fs::File::create(tmp)?;
                 let mut w = std::io::BufWriter::new(f);
-                hbis::report::cmdstan::write_chain(&mut w, sample, e, spec, seed)?;
+                hbis::report::cmdstan::write_chain(&mut w, sample, e, spec, seed, every)?;
                 w.into_inner().map_err(|e| e.into_error())?.sync_all()
             })?;
             chain_files.push(name);
         }
+        thin = Some(every);
     }
     let mut report = FitReport::from_fit(
         spec,
@@ -329,6 +401,7 @@ pub fn write_outputs(
         DataInfo::new(source, data),
         fit,
         chain_files,
+        thin,
     );
     report.warnings.splice(0..0, record_warnings);
     out.write(

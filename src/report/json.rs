@@ -186,8 +186,16 @@ pub struct SamplingInfo {
     pub acceptance: Vec<f64>,
     /// Log-posterior evaluations in this process.
     pub evaluations: u64,
-    /// Chain files (CmdStan CSV), relative to the output folder.
+    /// Chain files (CmdStan CSV, walker-major), relative to the output
+    /// folder; empty with `--no-chains`.
     pub chains: Vec<String>,
+    /// Every `thin`-th step after the burn-in is in the chain files
+    /// (absent when none were written).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub thin: Option<usize>,
+    /// Order of the rows in a chain file: `walker-major` (the draws of
+    /// walker 1, then walker 2, ...).
+    pub chain_layout: &'static str,
     /// Wall time of the sampling in this process (s).
     pub wall_time_s: f64,
     /// What became of the checkpoint: `{"status": "none" | "fresh"}`,
@@ -252,7 +260,8 @@ impl FitReport {
         }
     }
 
-    /// Builds the report of a whole fit; `chains` are the chain files written.
+    /// Builds the report of a whole fit; `chains` are the chain files
+    /// written, every `thin`-th step.
     pub fn from_fit(
         model: &str,
         seed: u64,
@@ -260,6 +269,7 @@ impl FitReport {
         data: DataInfo,
         fit: &Fit,
         chains: Vec<String>,
+        thin: Option<usize>,
     ) -> Self {
         let mut r = Self::from_map(model, seed, noise, data, &fit.map);
         r.max_log_likelihood = Some(fit.comparison.log_likelihood);
@@ -305,6 +315,8 @@ impl FitReport {
                 acceptance: s.acceptance.clone(),
                 evaluations: s.evaluations,
                 chains,
+                thin,
+                chain_layout: "walker-major",
                 wall_time_s: s.wall_time,
                 checkpoint: s.checkpoint.clone(),
             });
