@@ -211,7 +211,7 @@ fn identify(out: &mut impl Write, dir: &mut OutDir) -> Result<()> {
         SEED,
         Noise::White,
         record_warnings,
-        &super::fit::ChainArgs::default_outputs(),
+        &super::fit::ChainArgs::default(),
     )?;
     super::fit::drop_checkpoint(&fit_dir.join("checkpoint"));
     dir.set_prefix("");

@@ -94,8 +94,9 @@ pub struct Args {
     chains: ChainArgs,
 }
 
-/// What becomes of the draws and the checkpoint after a fit.
-#[derive(Debug, Clone, clap::Args)]
+/// What becomes of the draws and the checkpoint after a fit; the default
+/// (the demo's) is thinned chains written and no checkpoint left.
+#[derive(Debug, Clone, Default, clap::Args)]
 pub struct ChainArgs {
     /// Write every N-th step of the chains (default: half the largest
     /// autocorrelation time, `sampling.thin` in fit.json; 1 keeps all).
@@ -112,16 +113,6 @@ pub struct ChainArgs {
 }
 
 impl ChainArgs {
-    /// The demo's and a default fit's: thinned, chains written, no
-    /// checkpoint left.
-    pub fn default_outputs() -> Self {
-        Self {
-            thin: None,
-            no_chains: false,
-            keep_checkpoint: false,
-        }
-    }
-
     /// Rejects `--thin 0`.
     pub fn check(&self) -> Result<()> {
         if self.thin == Some(0) {
