@@ -1,0 +1,328 @@
+"""hbis: Bayesian identification of hybrid base isolation systems.
+
+The same Rust library as the ``hbis`` command-line tool, with numpy arrays
+in and out. Same inputs and seed give the numbers the binary gives.
+
+>>> import hbis
+>>> p = hbis.table_8_1(5)
+>>> t, u, v, a = hbis.simulate("trilinear+lcfm+viscous", p, dt=0.005, duration=10.0)
+>>> round(float(u[0]), 4) == p["u0"]
+True
+
+Errors in the inputs raise ``ValueError`` with the message the binary
+prints (which field, what was expected).
+"""
+
+from __future__ import annotations
+
+import json
+from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple
+
+import numpy as np
+
+from . import _hbis
+
+__version__ = _hbis.__version__
+
+#: The quantities of eq. 8.1 per draw, in Table 8.2's units.
+PHYSICAL = ("m", "k0", "k1", "k2", "kF", "c")
+PHYSICAL_UNITS = ("t", "kN/m", "kN/m", "kN/m", "kN/m", "kN s/m")
+
+#: The default model: tri-linear spring, linear-Coulomb friction, viscous damper.
+DEFAULT_MODEL = "trilinear+lcfm+viscous"
+
+
+def table_8_1(k: int) -> Dict[str, float]:
+    """The identified parameters of Solarino test ``k`` (1-5), Table 8.1, SI units."""
+    return _hbis.table_8_1(int(k))
+
+
+def param_names(model: str = DEFAULT_MODEL) -> List[str]:
+    """The parameter names of ``model`` in their order (noise parameters excluded)."""
+    return _hbis.param_names(model)
+
+
+def simulate(
+    model: str, params: Dict[str, float], dt: float, duration: float
+) -> Tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Free vibration after release: arrays ``(t, u, v, a)`` at ``t_i = i dt``.
+
+    ``params`` maps every parameter of ``model`` (see :func:`param_names`)
+    to its value in SI units; an unknown or missing name is a ``ValueError``.
+    ``a`` is what an accelerometer records (output components included).
+    """
+    return _hbis.simulate(model, dict(params), float(dt), float(duration))
+
+
+class Record:
+    """A measured (or synthetic) release-test record: time ``t`` (s) and
+    acceleration ``a`` (m/s^2), checked as the binary checks a file."""
+
+    def __init__(self, t: Sequence[float], a: Sequence[float], t0: Optional[float] = None):
+        self.t = np.ascontiguousarray(t, dtype=float)
+        self.a = np.ascontiguousarray(a, dtype=float)
+        self.t0 = t0
+        # Checked now, so a bad record fails where it is made.
+        self.aligned_t, self.aligned_a, self.release, self.release_source = _hbis.align(
+            self.t, self.a, t0
+        )
+
+    @classmethod
+    def read(cls, path: str, units: str = "m/s2", t0: Optional[float] = None) -> "Record":
+        """Reads a record file as ``hbis fit --data`` does (CSV with columns
+        ``t`` and ``a``, or whitespace-separated text), converting the
+        acceleration from ``units`` (``m/s2``, ``g``, ``mm/s2``) to m/s^2."""
+        t, a = _hbis.read_record(str(path), units)
+        return cls(t, a, t0)
+
+    def to_csv(self, path: str) -> None:
+        """Writes the record as the ``t,a`` CSV the binary reads."""
+        with open(path, "w") as f:
+            f.write("t,a\n")
+            for ti, ai in zip(self.t, self.a):
+                f.write(f"{float(ti)!r},{float(ai)!r}\n")
+
+    def __len__(self) -> int:
+        return len(self.t)
+
+    def __repr__(self) -> str:
+        return f"Record({len(self)} samples, release at t0 = {self.release:g} s, {self.release_source})"
+
+
+class Synthetic(Record):
+    """A synthetic record with the truth it was made from."""
+
+    def __init__(self, t, a, clean, sigma, model, params):
+        super().__init__(t, a)
+        self.clean = clean
+        self.sigma = sigma
+        self.model = model
+        self.truth = dict(params)
+
+
+def synthesize(
+    model: str,
+    params: Dict[str, float],
+    dt: float = 0.005,
+    n: int = 2001,
+    noise: float = 0.015,
+    seed: int = 1,
+) -> Synthetic:
+    """``model`` with ``params`` sampled ``n`` times at ``dt`` plus white
+    Gaussian noise of ``noise`` times the peak |a| (seeded, as the binary's
+    ``hbis synthesize``)."""
+    t, a, clean, sigma = _hbis.synthesize(model, dict(params), float(dt), int(n), float(noise), int(seed))
+    return Synthetic(t, a, clean, sigma, model, params)
+
+
+class Fit:
+    """A fitted record.
+
+    Attributes
+    ----------
+    report : dict
+        What ``fit.json`` holds (the binary's keys, documented in docs/cli.md).
+    map : dict
+        The MAP estimate by parameter name.
+    names : list of str
+        Parameter names, in the order of the last axis of :attr:`posterior`.
+    posterior : numpy.ndarray or None
+        Kept draws ``(chain, draw, param)``: one chain per ensemble, draws
+        walker-major and thinned as the chain files (``report["sampling"]["thin"]``).
+    log_prob : numpy.ndarray or None
+        Log-posterior of each draw, ``(chain, draw)``.
+    identifiability : dict or None
+        Ranking, weakest parameter, its explanation and the per-parameter table.
+    """
+
+    def __init__(self, raw: Any, seed: int):
+        self._raw = raw
+        self.seed = seed
+        self.names: List[str] = list(raw.names)
+        self.report: Dict[str, Any] = json.loads(raw.report_json)
+        self.map: Dict[str, float] = dict(self.report["map"])
+        self.posterior: Optional[np.ndarray] = raw.draws
+        lp = raw.log_prob
+        self.log_prob: Optional[np.ndarray] = None if lp is None else lp[:, :, 0]
+        self.thin: int = raw.thin
+
+    @property
+    def identifiability(self) -> Optional[Dict[str, Any]]:
+        r = self.report
+        if r.get("ranking") is None:
+            return None
+        return {
+            "ranking": r["ranking"],
+            "weakest": r["weakest"],
+            "explanation": r["explanation"],
+            **(r.get("identifiability") or {}),
+        }
+
+    @property
+    def converged(self) -> Optional[bool]:
+        s = self.report.get("sampling")
+        return None if s is None else bool(s["converged"])
+
+    def physical(self) -> np.ndarray:
+        """Eq. 8.1 per draw: ``(chain, draw, 6)`` of ``m, k0, k1, k2, kF, c``
+        (Table 8.2 units). Needs ``forces=(F0n, FfS)`` in :func:`fit`."""
+        p = self._raw.physical
+        if p is None:
+            raise ValueError(
+                "physical(): the fit has no forces; pass forces=(released_force_kN, static_friction_kN) to hbis.fit"
+            )
+        return p
+
+    def summary(self):
+        """Posterior summary per parameter (mean, sd, quantiles, ESS, R-hat):
+        a pandas DataFrame when pandas is installed, else a dict of dicts."""
+        post = self.report.get("posterior")
+        if post is None:
+            raise ValueError("summary(): a MAP-only fit has no posterior")
+        s = self.report["sampling"]
+        rows = {}
+        for n in self.names:
+            row = dict(post[n])
+            row["map"] = self.map.get(n)
+            row["ess"] = s["ess"][n]
+            row["rhat"] = s["rhat"][n]
+            row["tau"] = s["tau"][n]
+            rows[n] = row
+        try:
+            import pandas as pd
+        except ImportError:
+            return rows
+        return pd.DataFrame.from_dict(rows, orient="index")
+
+    def to_arviz(self):
+        """The draws as ArviZ ``InferenceData``: group ``posterior`` with dims
+        ``(chain, draw)`` per parameter, ``sample_stats.lp``, and (with
+        forces) eq. 8.1's quantities as further posterior variables."""
+        import arviz as az
+
+        if self.posterior is None:
+            raise ValueError("to_arviz(): a MAP-only fit has no posterior")
+        post = {n: self.posterior[:, :, k] for k, n in enumerate(self.names)}
+        if self._raw.physical is not None:
+            phys = self._raw.physical
+            for k, n in enumerate(PHYSICAL):
+                post[n] = phys[:, :, k]
+        return az.from_dict(
+            posterior=post,
+            sample_stats={"lp": self.log_prob},
+            attrs={
+                "model": self.report["model"],
+                "seed": self.seed,
+                "chain_layout": "one chain per ensemble, walker-major draws",
+                "thin": self.thin,
+                "inference_library": "hbis",
+                "inference_library_version": __version__,
+            },
+        )
+
+    def __repr__(self) -> str:
+        conv = self.converged
+        state = "MAP only" if conv is None else ("converged" if conv else "NOT converged")
+        return f"Fit({self.report['model']}, {len(self.names)} parameters, {state})"
+
+
+def _arrays(record) -> Tuple[np.ndarray, np.ndarray, Optional[float]]:
+    if isinstance(record, Record):
+        return record.t, record.a, record.t0
+    t, a = record
+    return np.ascontiguousarray(t, dtype=float), np.ascontiguousarray(a, dtype=float), None
+
+
+def fit(
+    record,
+    model: str = DEFAULT_MODEL,
+    noise: str = "white",
+    seed: int = 1,
+    *,
+    map_only: bool = False,
+    ensembles: int = 4,
+    walkers: Optional[int] = None,
+    tau_multiple: float = 50.0,
+    max_steps: int = 20_000,
+    ess: Optional[float] = None,
+    moves: Optional[str] = None,
+    max_evals: int = 200_000,
+    evidence: bool = False,
+    forces: Optional[Tuple[float, float]] = None,
+    design_target: Optional[float] = 0.5,
+    thin: Optional[int] = None,
+    progress: Optional[Callable[[int, int, float], None]] = None,
+) -> Fit:
+    """Fits ``record`` (a :class:`Record` or a ``(t, a)`` pair) with ``model``.
+
+    The defaults are ``hbis fit``'s: MAP by CMA-ES with restarts and a
+    polish, then the ensemble sampler until the kept chain is 50
+    autocorrelation times long and split R-hat <= 1.01. ``progress``, if
+    given, is called as ``progress(steps, target_steps, tau_max)`` while
+    sampling (e.g. to drive a tqdm bar). The GIL is released while the fit
+    runs.
+    """
+    t, a, t0 = _arrays(record)
+    raw = _hbis.fit(
+        t,
+        a,
+        model=model,
+        noise=noise,
+        seed=int(seed),
+        t0=t0,
+        map_only=map_only,
+        ensembles=ensembles,
+        walkers=walkers,
+        tau_multiple=tau_multiple,
+        max_steps=max_steps,
+        ess=ess,
+        moves=moves,
+        max_evals=max_evals,
+        evidence=evidence,
+        forces=forces,
+        design_target=design_target,
+        thin=thin,
+        progress=progress,
+    )
+    return Fit(raw, int(seed))
+
+
+def diagnose(record, model: str, noise: str = "white", seed: int = 1) -> Dict[str, Any]:
+    """``hbis diagnose``: the fit of ``model``, its residual diagnosis and every
+    catalog candidate ranked (the keys of ``diagnosis.json``)."""
+    t, a, t0 = _arrays(record)
+    return json.loads(_hbis.diagnose(t, a, model, noise=noise, seed=int(seed), t0=t0))
+
+
+def ladder(
+    record,
+    model: str,
+    noise: str = "white",
+    seed: int = 1,
+    max_steps: int = 6,
+    progress: Optional[Callable[[int, str], None]] = None,
+) -> Dict[str, Any]:
+    """``hbis ladder``: add the best supported effect, refit, repeat. Returns
+    ``{"start", "seed", "noise", "noise_choice", "steps": [...]}``;
+    ``progress(k, model)`` is called after each step."""
+    t, a, t0 = _arrays(record)
+    return json.loads(
+        _hbis.ladder(t, a, model, noise=noise, seed=int(seed), t0=t0, max_steps=max_steps, progress=progress)
+    )
+
+
+__all__ = [
+    "DEFAULT_MODEL",
+    "PHYSICAL",
+    "PHYSICAL_UNITS",
+    "Fit",
+    "Record",
+    "Synthetic",
+    "diagnose",
+    "fit",
+    "ladder",
+    "param_names",
+    "simulate",
+    "synthesize",
+    "table_8_1",
+]

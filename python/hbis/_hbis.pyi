@@ -1,0 +1,69 @@
+"""Type stubs of the compiled part of hbis (``hbis._hbis``). Use the
+wrappers in ``hbis`` (``hbis.fit``, ``hbis.Record``, ...) rather than these."""
+
+from typing import Callable, Dict, List, Optional, Tuple
+
+import numpy as np
+import numpy.typing as npt
+
+__version__: str
+
+Array = npt.NDArray[np.float64]
+
+def table_8_1(k: int) -> Dict[str, float]: ...
+def param_names(model: str) -> List[str]: ...
+def simulate(
+    model: str, params: Dict[str, float], dt: float, duration: float
+) -> Tuple[Array, Array, Array, Array]: ...
+def synthesize(
+    model: str, params: Dict[str, float], dt: float, n: int, noise: float, seed: int
+) -> Tuple[Array, Array, Array, float]: ...
+def read_record(path: str, units: str = "m/s2") -> Tuple[Array, Array]: ...
+def align(t: Array, a: Array, t0: Optional[float] = None) -> Tuple[Array, Array, float, str]: ...
+
+class FitResult:
+    names: List[str]
+    report_json: str
+    thin: int
+    @property
+    def draws(self) -> Optional[Array]: ...
+    @property
+    def log_prob(self) -> Optional[Array]: ...
+    @property
+    def physical(self) -> Optional[Array]: ...
+
+def fit(
+    t: Array,
+    a: Array,
+    model: str = "trilinear+lcfm+viscous",
+    noise: str = "white",
+    seed: int = 1,
+    t0: Optional[float] = None,
+    map_only: bool = False,
+    ensembles: int = 4,
+    walkers: Optional[int] = None,
+    tau_multiple: float = 50.0,
+    max_steps: int = 20000,
+    ess: Optional[float] = None,
+    moves: Optional[str] = None,
+    max_evals: int = 200000,
+    evidence: bool = False,
+    forces: Optional[Tuple[float, float]] = None,
+    design_target: Optional[float] = 0.5,
+    thin: Optional[int] = None,
+    source: str = "array",
+    progress: Optional[Callable[[int, int, float], None]] = None,
+) -> FitResult: ...
+def diagnose(
+    t: Array, a: Array, model: str, noise: str = "white", seed: int = 1, t0: Optional[float] = None
+) -> str: ...
+def ladder(
+    t: Array,
+    a: Array,
+    model: str,
+    noise: str = "white",
+    seed: int = 1,
+    t0: Optional[float] = None,
+    max_steps: int = 6,
+    progress: Optional[Callable[[int, str], None]] = None,
+) -> str: ...

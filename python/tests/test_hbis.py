@@ -1,0 +1,222 @@
+"""The Python package against the Rust binary: same inputs and seed, same
+numbers. The binary is `HBIS_BIN` (set by `.ci/run`), else the newest of
+`target/{release,debug}/hbis` in this repository."""
+
+import csv
+import json
+import os
+import subprocess
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import hbis
+
+ROOT = Path(__file__).resolve().parents[2]
+MODEL = "trilinear+lcfm+viscous"
+# A short, cheap posterior run that still converges on a 2-core machine.
+QUICK = dict(ensembles=2, tau_multiple=20.0, max_steps=4000)
+QUICK_ARGS = ["--ensembles", "2", "--tau-multiple", "20", "--max-steps", "4000"]
+
+
+def _binary():
+    env = os.environ.get("HBIS_BIN")
+    if env:
+        assert Path(env).is_file(), f"HBIS_BIN={env} does not exist"
+        return env
+    found = [p for p in (ROOT / "target/release/hbis", ROOT / "target/debug/hbis") if p.is_file()]
+    if not found:
+        pytest.skip("no hbis binary: set HBIS_BIN or run cargo build")
+    return str(max(found, key=lambda p: p.stat().st_mtime))
+
+
+def run(args, cwd):
+    return subprocess.run([_binary(), *args], cwd=cwd, capture_output=True, text=True)
+
+
+@pytest.fixture(scope="module")
+def record():
+    return hbis.synthesize(MODEL, hbis.table_8_1(5), dt=0.005, n=1201, noise=0.015, seed=11)
+
+
+@pytest.fixture(scope="module")
+def fitted(record):
+    return hbis.fit(record, MODEL, seed=4, forces=(60.0, 10.0), **QUICK)
+
+
+@pytest.fixture(scope="module")
+def cli_fit(record, tmp_path_factory):
+    d = tmp_path_factory.mktemp("cli")
+    record.to_csv(str(d / "rec.csv"))
+    o = run(
+        ["fit", "--data", "rec.csv", "--out", "out", "--seed", "4", "--released-force", "60",
+         "--static-friction", "10", *QUICK_ARGS],
+        d,
+    )
+    assert o.returncode == 0, o.stderr
+    return d / "out"
+
+
+def test_table_and_simulate_match_the_binary(tmp_path):
+    p = hbis.table_8_1(5)
+    (tmp_path / "p.json").write_text(json.dumps(p))
+    o = run(["simulate", "--model", MODEL, "--params", "p.json", "--dt", "0.01",
+             "--duration", "8", "--out", "s.csv"], tmp_path)
+    assert o.returncode == 0, o.stderr
+    with open(tmp_path / "s.csv") as f:
+        rows = list(csv.DictReader(f))
+    t, u, v, a = hbis.simulate(MODEL, p, 0.01, 8.0)
+    assert len(t) == len(rows) == 801
+    ref = {k: np.array([float(r[k]) for r in rows]) for k in ("t", "u", "v", "a")}
+    # The binary prints shortest round-trip decimals: the motion is equal to
+    # the bit. `a` is what a record holds (the sampler's grid recurrence),
+    # the binary's `a` the closed form evaluated per sample: round-off apart.
+    for key, arr in (("t", t), ("u", u), ("v", v)):
+        np.testing.assert_array_equal(arr, ref[key], err_msg=key)
+    np.testing.assert_allclose(a, ref["a"], rtol=0, atol=1e-12 * np.abs(ref["a"]).max())
+
+
+def test_the_record_round_trips_through_csv(record, tmp_path):
+    record.to_csv(str(tmp_path / "r.csv"))
+    back = hbis.Record.read(str(tmp_path / "r.csv"))
+    np.testing.assert_array_equal(back.t, record.t)
+    np.testing.assert_array_equal(back.a, record.a)
+    assert record.sigma > 0 and len(record) == 1201
+
+
+def test_fit_gives_the_binarys_numbers(fitted, cli_fit):
+    cli = json.loads((cli_fit / "fit.json").read_text())
+    assert fitted.map == cli["map"]
+    assert fitted.report["posterior"] == cli["posterior"]
+    assert fitted.report["sampling"]["ess"] == cli["sampling"]["ess"]
+    assert fitted.report["physical"] == cli["physical"]
+    assert fitted.identifiability["weakest"] == cli["weakest"]
+    assert fitted.thin == cli["sampling"]["thin"]
+
+
+def test_posterior_is_the_chain_files(fitted, cli_fit):
+    assert fitted.converged
+    chains, draws, dim = fitted.posterior.shape
+    assert dim == len(fitted.names) == 9
+    assert chains == fitted.report["sampling"]["ensembles"] == 2
+    for c in range(chains):
+        with open(cli_fit / "chains" / f"chain-{c + 1}.csv") as f:
+            rows = [r for r in csv.reader(f) if r and not r[0].startswith("#")]
+        header, body = rows[0], np.array(rows[1:], dtype=float)
+        assert header[2:] == fitted.names
+        assert body.shape == (draws, 2 + dim)
+        np.testing.assert_array_equal(body[:, 2:], fitted.posterior[c])
+        np.testing.assert_array_equal(body[:, 0], fitted.log_prob[c])
+
+
+def test_physical_per_draw_is_eq_8_1_as_the_binary_converts_it(fitted, tmp_path):
+    phys = fitted.physical()
+    assert phys.shape == fitted.posterior.shape[:2] + (6,)
+    c, i = 1, phys.shape[1] // 2
+    (tmp_path / "p.json").write_text(json.dumps(dict(zip(fitted.names, fitted.posterior[c, i].tolist()))))
+    o = run(["convert", "--model", MODEL, "--params", "p.json", "--released-force", "60",
+             "--static-friction", "10", "--json"], tmp_path)
+    assert o.returncode == 0, o.stderr
+    ref = json.loads(o.stdout[: o.stdout.index("}") + 1])
+    np.testing.assert_allclose(phys[c, i], [ref[k] for k in hbis.PHYSICAL], rtol=1e-12)
+
+
+def test_summary_is_a_dataframe_with_the_reports_numbers(fitted):
+    df = fitted.summary()
+    assert list(df.index) == fitted.names
+    for n in fitted.names:
+        assert df.loc[n, "mean"] == fitted.report["posterior"][n]["mean"]
+        assert df.loc[n, "rhat"] <= 1.01
+
+
+def test_arviz_agrees_with_hbis_on_ess_and_rhat(fitted):
+    az = pytest.importorskip("arviz")
+    idata = fitted.to_arviz()
+    assert dict(idata.posterior.sizes) == {"chain": 2, "draw": fitted.posterior.shape[1]}
+    assert "k0" in idata.posterior and "lp" in idata.sample_stats
+    s = az.summary(idata, var_names=fitted.names)
+    for n in fitted.names:
+        ratio = s.loc[n, "ess_bulk"] / fitted.report["sampling"]["ess"][n]
+        assert 0.5 <= ratio <= 2.0, f"{n}: ArviZ bulk ESS / hbis ESS = {ratio:.2f}"
+        assert s.loc[n, "r_hat"] <= 1.01, n
+
+
+def test_progress_is_reported_and_the_gil_released(record):
+    calls = []
+    ticks = []
+    stop = threading.Event()
+
+    def tick():
+        while not stop.is_set():
+            ticks.append(1)
+            time.sleep(0.01)
+
+    th = threading.Thread(target=tick)
+    th.start()
+    try:
+        f = hbis.fit(record, MODEL, seed=2, progress=lambda s, n, tau: calls.append((s, n, tau)), **QUICK)
+    finally:
+        stop.set()
+        th.join()
+    assert calls, "no progress reported"
+    steps = [c[0] for c in calls]
+    assert steps == sorted(steps) and steps[-1] == f.report["sampling"]["steps"]
+    # The other thread kept running while the fit held no GIL.
+    assert len(ticks) > 10
+
+
+def test_map_only_fit_has_no_posterior(record):
+    f = hbis.fit(record, MODEL, seed=1, map_only=True)
+    assert f.posterior is None and f.converged is None
+    assert list(f.map) == sorted(hbis.param_names(MODEL))
+    with pytest.raises(ValueError, match="MAP-only"):
+        f.summary()
+
+
+@pytest.mark.parametrize(
+    "call, message",
+    [
+        (lambda: hbis.simulate("trilinear+lcfm+magic", hbis.table_8_1(5), 0.01, 1.0), "magic"),
+        (lambda: hbis.simulate(MODEL, {"u0": 0.1}, 0.01, 1.0), "`uy` is missing"),
+        (lambda: hbis.simulate(MODEL, {**hbis.table_8_1(5), "k9": 1.0}, 0.01, 1.0), "`k9` is not a parameter"),
+        (lambda: hbis.simulate(MODEL, hbis.table_8_1(5), -0.01, 1.0), "dt = -0.01"),
+        (lambda: hbis.table_8_1(9), "expected a test 1-5"),
+        (lambda: hbis.Record([0.0, 0.1, 0.1, 0.3], [1.0, 0.5, 0.2, 0.1]), "increase"),
+        (lambda: hbis.fit(hbis.synthesize(MODEL, hbis.table_8_1(5)), MODEL, thin=0), "thin = 0"),
+        (lambda: hbis.fit(hbis.synthesize(MODEL, hbis.table_8_1(5)), MODEL, noise="pink"), "noise `pink`"),
+        (lambda: hbis.fit(hbis.synthesize(MODEL, hbis.table_8_1(5)), MODEL, moves="jump"), "moves `jump`"),
+    ],
+)
+def test_bad_input_is_a_value_error_naming_it(call, message):
+    with pytest.raises(ValueError, match=message):
+        call()
+
+
+def test_diagnose_gives_the_binarys_numbers(tmp_path):
+    syn = hbis.synthesize("bilinear+coulomb+viscous", _bilinear(), dt=0.01, n=301, noise=0.01, seed=3)
+    syn.to_csv(str(tmp_path / "r.csv"))
+    o = run(["diagnose", "--data", "r.csv", "--model", "bilinear+coulomb+viscous", "--seed", "5",
+             "--out", "d"], tmp_path)
+    assert o.returncode == 0, o.stderr
+    cli = json.loads((tmp_path / "d" / "diagnosis.json").read_text())
+    py = hbis.diagnose(syn, "bilinear+coulomb+viscous", seed=5)
+    assert py["map"] == cli["map"]
+    assert py["bic"] == cli["bic"] and py["e2"] == cli["e2"]
+    assert [c["effect"] for c in py["candidates"]] == [c["effect"] for c in cli["candidates"]]
+    assert [c["delta_bic"] for c in py["candidates"]] == [c["delta_bic"] for c in cli["candidates"]]
+    assert py["conclusion"] == cli["conclusion"]
+
+
+def _bilinear():
+    p = hbis.table_8_1(3)
+    return {k: p[k] for k in hbis.param_names("bilinear+coulomb+viscous")}
+
+
+def test_the_module_docstring_example_runs():
+    import doctest
+
+    r = doctest.testmod(hbis, verbose=False)
+    assert r.attempted >= 3 and r.failed == 0
