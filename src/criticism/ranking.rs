@@ -31,7 +31,7 @@
 //!
 //! BIC, the maximised log-likelihood and the Laplace evidence are those of
 //! [`crate::inference::pipeline`], which `hbis fit` reports too; checked
-//! against transitional MCMC (`inference::tmcmc`) in `tests/evidence.rs`.
+//! against transitional MCMC (`inference::tmcmc`) in `tests/it/evidence.rs`.
 //!
 //! The candidates come from a [`Registry`]: the built-in catalog, or one a
 //! library user extended with their own components.

@@ -24,7 +24,7 @@
 //! ```
 //! The lines are meant to keep a wrong stiffness (another slope of the
 //! acceleration on either side) out of the jump, though a wrong post-yield
-//! stiffness still leaks in (the ignored test in `tests/verdicts.rs`); a sample is left out on each side so that
+//! stiffness still leaks in (the ignored test in `tests/it/verdicts.rs`); a sample is left out on each side so that
 //! a record reversing a sample off the model keeps its jump outside the
 //! lines. The structure features and the verdict are in
 //! [`super::features`].

@@ -27,8 +27,8 @@
 //! ln Z from 5770 to 5826 over four seeds. The Hessian is deterministic:
 //! the same MAP gives the same evidence whatever the seed. It is checked
 //! against transitional MCMC in
-//! `tests/evidence.rs` (5939.35 against a three-run TMCMC mean of 5939.24)
-//! and against an exact evidence in `tests/evidence_analytic.rs` (+0.0057
+//! `tests/it/evidence.rs` (5939.35 against a three-run TMCMC mean of 5939.24)
+//! and against an exact evidence in `tests/it/evidence_analytic.rs` (+0.0057
 //! nat). On the tutorial record four
 //! seeds of the MAP search give the true model evidences within 0.44 nat
 //! and the misfitted `trilinear+coulomb` within 2.4
@@ -57,7 +57,7 @@ pub const STEP: f64 = 2.0;
 /// effect 60 nats too low (a `velocity-friction` refit with a BIC gain of
 /// 82, `criticism::calibration`). The evidence still depends on this
 /// choice where the posterior is not Gaussian: on the record of
-/// `tests/evidence.rs` (TMCMC 5939.24, three runs), 5941.9, 5940.9, 5939.4 and 5936.0
+/// `tests/it/evidence.rs` (TMCMC 5939.24, three runs), 5941.9, 5940.9, 5939.4 and 5936.0
 /// for falls of 0.5, 1, 2 and 4.5 nats.
 pub const SCALE_DROP: f64 = 2.0;
 

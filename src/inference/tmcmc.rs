@@ -2,9 +2,9 @@
 //! posteriors `prior x likelihood^beta` from `beta = 0` to 1 and estimates
 //! the log-evidence as the sum of the logs of the mean incremental weights.
 //! Used to check Laplace's approximation of the evidence that
-//! `criticism::ranking` uses (`tests/evidence.rs`); itself checked against
+//! `criticism::ranking` uses (`tests/it/evidence.rs`); itself checked against
 //! exact evidences (a Gaussian in a box below, a linear model in
-//! `tests/evidence_analytic.rs`). With few Metropolis steps per stage it
+//! `tests/it/evidence_analytic.rs`). With few Metropolis steps per stage it
 //! under-estimates on heavy-tailed tempered stages (0.94 nat low at 2,000
 //! particles and 3 steps on the linear model; 0.11 at 20 steps): the
 //! checks use 20.
@@ -240,7 +240,7 @@ mod tests {
     /// estimate of `Z` is itself low by about sd^2 / 2 = 0.08 nat, well inside
     /// the tolerance (measured: 0.085 low, se 0.069). On the heavier-tailed
     /// likelihood of the crate, with the noise sd integrated out, the defaults
-    /// mix too little: `tests/evidence_analytic.rs`.
+    /// mix too little: `tests/it/evidence_analytic.rs`.
     #[test]
     fn evidence_of_a_gaussian_likelihood_within_monte_carlo_error() {
         const SEEDS: u64 = 32;

@@ -4,9 +4,7 @@
 //! kill at any moment, bounded sizes refused before any work, and no panic
 //! when standard output cannot be written.
 
-#[path = "common/bin.rs"]
-#[allow(dead_code)]
-mod bin;
+use crate::bin;
 
 use bin::{hbis, stderr};
 

@@ -3,9 +3,7 @@
 //! offset. It samples a converged posterior and writes the files of any
 //! fit, with BIC and the Laplace evidence.
 
-#[path = "common/bin.rs"]
-#[allow(dead_code)]
-mod bin;
+use crate::bin;
 
 use bin::{hbis, stderr};
 

@@ -2,7 +2,7 @@
 //! damper's by an independent quadrature of `c v^2`) equals the change of
 //! kinetic energy, on random parameters of every regime.
 
-mod common;
+use crate::common;
 
 use hbis::model::{Response, SimError};
 

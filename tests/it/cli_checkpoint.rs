@@ -2,9 +2,7 @@
 //! file overwritten with garbage is not resumed; the run starts afresh and
 //! ends with exactly the result of a clean run.
 
-#[path = "common/bin.rs"]
-#[allow(dead_code)]
-mod bin;
+use crate::bin;
 
 use bin::{hbis, stderr};
 

@@ -3,7 +3,7 @@
 //! motion, on random parameter sets across every regime: displacement within
 //! 1e-9 m, acceleration within 1e-7 m/s^2 away from the jumps.
 
-mod common;
+use crate::common;
 
 use common::{Regime, REGIMES};
 use hbis::model::{PhaseKind, Response, SimError};

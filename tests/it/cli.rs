@@ -1,8 +1,6 @@
 //! The real `hbis` binary, run in temporary folders.
 
-#[path = "common/bin.rs"]
-#[allow(dead_code)]
-mod bin;
+use crate::bin;
 
 use bin::{hbis, stderr};
 

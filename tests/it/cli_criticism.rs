@@ -1,9 +1,7 @@
 //! `hbis diagnose` and `hbis ladder` through the real binary: the documented
 //! keys, and errors that exit 2.
 
-#[path = "common/bin.rs"]
-#[allow(dead_code)]
-mod bin;
+use crate::bin;
 
 use bin::{hbis, stderr};
 

@@ -1,9 +1,7 @@
 //! `hbis fit` through the real binary: the documented keys, determinism
 //! across thread counts, and errors that name the row or field.
 
-#[path = "common/bin.rs"]
-#[allow(dead_code)]
-mod bin;
+use crate::bin;
 
 use bin::{hbis, hbis_with, stderr};
 

@@ -3,7 +3,7 @@
 //! linear components: with `mu_slow = mu_fast` it must reproduce the
 //! closed-form acceleration in every regime.
 
-mod common;
+use crate::common;
 
 use hbis::model::{Model, Response, SimError};
 

@@ -4,7 +4,7 @@
 //! hidden in records of random parameter sets is ranked first; a user's own
 //! force component (examples/custom_force_effect.rs) is added by the ladder.
 
-mod common;
+use crate::common;
 
 use hbis::criticism::{adopt, choose_noise, diagnose_model, diagnosis_of, fit_model, ladder};
 use hbis::data::{synthesize, Aligned};
@@ -14,7 +14,7 @@ use rand::rngs::StdRng;
 use rand::{RngExt, SeedableRng};
 
 #[allow(dead_code)]
-#[path = "../examples/custom_force_effect.rs"]
+#[path = "../../examples/custom_force_effect.rs"]
 mod custom_force_effect;
 
 const SPRINGS: [&str; 3] = ["linear", "bilinear", "trilinear"];

@@ -15,7 +15,7 @@ use hbis::model::{ForwardModel, Model, ModelSpec, OutputComponent, Params, Regis
 use rand::{rngs::StdRng, SeedableRng};
 
 #[allow(dead_code)]
-#[path = "../examples/custom_effect.rs"]
+#[path = "../../examples/custom_effect.rs"]
 mod custom_effect;
 
 /// A record from `model` at `truth` with 1.5 % noise, and its noise floor
