@@ -38,8 +38,10 @@
 //! - [`study`]: one record end to end (MAP, posterior, reports);
 //! - [`criticism`]: residual diagnostics, effects as components, ranking of
 //!   missing effects, the ladder;
-//! - [`report`]: CSV, `fit.json`, CmdStan chains, figures.
+//! - [`report`]: CSV, `fit.json`, CmdStan chains, figures;
+//! - [`batch`]: studies of many records (manifest, items, shards, summary).
 
+pub mod batch;
 pub mod criticism;
 pub mod data;
 pub mod inference;

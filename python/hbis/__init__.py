@@ -33,7 +33,7 @@ DEFAULT_MODEL = "trilinear+lcfm+viscous"
 
 
 def table_8_1(k: int) -> Dict[str, float]:
-    """The identified parameters of Solarino test ``k`` (1-5), Table 8.1, SI units."""
+    """The identified parameters of Solarino test ``k`` (3, 5, 6, 7 or 8), Table 8.1, SI units."""
     return _hbis.table_8_1(int(k))
 
 

@@ -83,11 +83,14 @@ fn theta_of(model: &Model, params: &BTreeMap<String, f64>) -> PyResult<Vec<f64>>
     Ok(theta)
 }
 
-/// The parameters of Table 8.1, test `k` (1-5), by name.
+/// The parameters of Table 8.1, Solarino test `k` (3, 5, 6, 7 or 8), by name.
 #[pyfunction]
 fn table_8_1(k: u32) -> PyResult<BTreeMap<String, f64>> {
-    let p = Params::table_8_1(k)
-        .ok_or_else(|| value_error(format!("table_8_1({k}): expected a test 1-5")))?;
+    let p = Params::table_8_1(k).ok_or_else(|| {
+        value_error(format!(
+            "table_8_1({k}): expected a Solarino test of Table 8.1: 3, 5, 6, 7 or 8"
+        ))
+    })?;
     Ok(hbis::model::ParamName::ALL
         .iter()
         .map(|n| (n.as_str().to_string(), p.get(*n)))

@@ -1,6 +1,7 @@
 //! Command-line parsing and dispatch. Every error is printed with its whole
 //! cause chain on one line; bad input exits with code 2.
 
+mod batch;
 mod convert;
 mod criticize;
 mod demo;
@@ -38,6 +39,9 @@ enum Command {
     Ladder(criticize::LadderArgs),
     /// Run the built-in demonstration on the Solarino Test 5 parameters.
     Demo(demo::Args),
+    /// Fit a study of many records (records x models x seeds from a TOML
+    /// manifest): resumable, split into shards, collected into one summary.
+    Batch(batch::Args),
 }
 
 /// Parse the arguments, run, and turn the outcome into an exit code.
@@ -51,6 +55,7 @@ pub fn main() -> ExitCode {
         Command::Diagnose(a) => criticize::diagnose(a),
         Command::Ladder(a) => criticize::run_ladder(a),
         Command::Demo(a) => demo::run(a),
+        Command::Batch(a) => batch::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -9,6 +9,7 @@ mod common;
 
 mod calibration;
 mod cli;
+mod cli_batch;
 mod cli_checkpoint;
 mod cli_criticism;
 mod cli_fit;

@@ -1,0 +1,583 @@
+//! Studies of many records: a manifest of records x models x seeds, its
+//! items in a fixed order, shards of them for a job array, and the tidy
+//! summary across the study.
+//!
+//! A study is a TOML file (`docs/cli.md`, "hbis batch"):
+//!
+//! ```toml
+//! models = ["trilinear+lcfm+viscous"]
+//! seeds = [1, 2]
+//!
+//! [fit]                      # hbis fit's flags without the dashes
+//! ensembles = 2
+//! map-only = false
+//!
+//! [[record]]
+//! path = "records/test3.csv" # relative to the manifest's folder
+//! name = "test3"             # default: the file's stem
+//! released-force = 1050      # any fit flag, for this record only
+//! static-friction = 100
+//! ```
+//!
+//! Item `k` (records, then models, then seeds, in the manifest's order)
+//! belongs to shard `k mod n + 1` of `n`: round robin, so that records of
+//! different lengths spread over the shards. Every item's result depends
+//! only on its record, model, seed and options, so a study split into
+//! shards and collected equals the unsplit run.
+//!
+//! ```
+//! use hbis::batch::{Shard, Study};
+//!
+//! let study = Study::parse(
+//!     "models = [\"bilinear+coulomb\"]\nseeds = [1, 2]\n[[record]]\npath = \"a.csv\"\n[[record]]\npath = \"b.csv\"\n",
+//!     "/data".as_ref(),
+//! )?;
+//! let items = study.items();
+//! assert_eq!(items.len(), 4);
+//! assert_eq!(items[1].folder(&study), std::path::Path::new("a/bilinear+coulomb/seed-2"));
+//! let shard: Shard = "2/2".parse()?;
+//! assert_eq!(study.items().into_iter().filter(|i| shard.holds(i)).count(), 2);
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+
+use std::collections::BTreeSet;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::str::FromStr;
+
+use thiserror::Error;
+
+/// What is wrong with a study manifest or a shard.
+#[derive(Debug, Error)]
+pub enum BatchError {
+    /// Not TOML.
+    #[error("not a TOML study manifest: {0}")]
+    Syntax(String),
+    /// A key is missing, of the wrong type, or unknown.
+    #[error("`{key}`: {problem}")]
+    Key {
+        /// The key, with its table (`record[2].path`).
+        key: String,
+        /// What was expected.
+        problem: String,
+    },
+    /// A shard that is not `i/n` with `1 <= i <= n`.
+    #[error("shard `{0}`: expected i/n with 1 <= i <= n, e.g. 1/4")]
+    Shard(String),
+}
+
+fn key_err(key: impl Into<String>, problem: impl Into<String>) -> BatchError {
+    BatchError::Key {
+        key: key.into(),
+        problem: problem.into(),
+    }
+}
+
+/// `hbis fit` flags a manifest may set (without their dashes), with
+/// whether they take a value. `data`, `model`, `seed` and `out` come from
+/// the item.
+pub const FIT_OPTIONS: &[(&str, bool)] = &[
+    ("noise", true),
+    ("prior", true),
+    ("max-evals", true),
+    ("map-only", false),
+    ("ensembles", true),
+    ("walkers", true),
+    ("tau-multiple", true),
+    ("max-steps", true),
+    ("ess", true),
+    ("moves", true),
+    ("evidence", false),
+    ("released-force", true),
+    ("static-friction", true),
+    ("design-target", true),
+    ("no-design", false),
+    ("t0", true),
+    ("accel-units", true),
+    ("drop-outliers", false),
+    ("thin", true),
+    ("no-chains", false),
+    ("keep-checkpoint", false),
+];
+
+/// One record of the study.
+#[derive(Debug, Clone, PartialEq)]
+pub struct StudyRecord {
+    /// Its name in folders and the summary (unique in the study).
+    pub name: String,
+    /// The file, resolved against the manifest's folder.
+    pub path: PathBuf,
+    /// Its own fit flags, after the study's.
+    pub flags: Vec<String>,
+}
+
+/// A parsed study manifest.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Study {
+    /// The records, in the manifest's order.
+    pub records: Vec<StudyRecord>,
+    /// The models (specs), in the manifest's order.
+    pub models: Vec<String>,
+    /// The seeds, in the manifest's order.
+    pub seeds: Vec<u64>,
+    /// Fit flags of every item.
+    pub flags: Vec<String>,
+}
+
+/// One fit of the study: a record, a model, a seed.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Item {
+    /// Position in the study's order (0-based).
+    pub index: usize,
+    /// Index of its record in [`Study::records`].
+    pub record: usize,
+    /// Model spec.
+    pub model: String,
+    /// Seed.
+    pub seed: u64,
+}
+
+impl Item {
+    /// Its folder inside the study's output folder:
+    /// `<record>/<model>/seed-<seed>`.
+    pub fn folder(&self, study: &Study) -> PathBuf {
+        Path::new(&study.records[self.record].name)
+            .join(&self.model)
+            .join(format!("seed-{}", self.seed))
+    }
+}
+
+/// Shard `index` of `count` (1-based), as `i/n`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Shard {
+    /// Which shard, 1..=count.
+    pub index: usize,
+    /// How many shards.
+    pub count: usize,
+}
+
+impl Shard {
+    /// The whole study as one shard.
+    pub const ALL: Shard = Shard { index: 1, count: 1 };
+
+    /// Whether `item` belongs to this shard (round robin).
+    pub fn holds(&self, item: &Item) -> bool {
+        item.index % self.count + 1 == self.index
+    }
+}
+
+impl FromStr for Shard {
+    type Err = BatchError;
+
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        let bad = || BatchError::Shard(s.to_string());
+        let (i, n) = s.split_once('/').ok_or_else(bad)?;
+        let index: usize = i.trim().parse().map_err(|_| bad())?;
+        let count: usize = n.trim().parse().map_err(|_| bad())?;
+        if index == 0 || count == 0 || index > count {
+            return Err(bad());
+        }
+        Ok(Shard { index, count })
+    }
+}
+
+impl std::fmt::Display for Shard {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}/{}", self.index, self.count)
+    }
+}
+
+/// A table's fit options as flags, refusing unknown keys and values of the
+/// wrong type. `skip` names keys handled elsewhere.
+fn flags_of(table: &toml::Table, at: &str, skip: &[&str]) -> Result<Vec<String>, BatchError> {
+    let mut flags = Vec::new();
+    for (k, v) in table {
+        if skip.contains(&k.as_str()) {
+            continue;
+        }
+        let key = format!("{at}{k}");
+        let Some(&(_, takes_value)) = FIT_OPTIONS.iter().find(|(name, _)| name == k) else {
+            let known: Vec<&str> = FIT_OPTIONS.iter().map(|(n, _)| *n).collect();
+            return Err(key_err(
+                key,
+                format!(
+                    "not an option of hbis fit here (known: {})",
+                    known.join(", ")
+                ),
+            ));
+        };
+        match (takes_value, v) {
+            (false, toml::Value::Boolean(true)) => flags.push(format!("--{k}")),
+            (false, toml::Value::Boolean(false)) => {}
+            (false, _) => return Err(key_err(key, "expected true or false")),
+            (true, toml::Value::String(s)) => flags.extend([format!("--{k}"), s.clone()]),
+            (true, toml::Value::Integer(i)) => flags.extend([format!("--{k}"), i.to_string()]),
+            (true, toml::Value::Float(x)) => flags.extend([format!("--{k}"), x.to_string()]),
+            (true, _) => return Err(key_err(key, "expected a number or a string")),
+        }
+    }
+    Ok(flags)
+}
+
+fn string_list(table: &toml::Table, key: &str) -> Result<Vec<String>, BatchError> {
+    let v = table.get(key).ok_or_else(|| {
+        key_err(
+            key,
+            "missing: expected a list, e.g. [\"trilinear+lcfm+viscous\"]",
+        )
+    })?;
+    let list = v
+        .as_array()
+        .ok_or_else(|| key_err(key, "expected a list of strings"))?;
+    let out = list
+        .iter()
+        .enumerate()
+        .map(|(i, x)| {
+            x.as_str()
+                .map(str::to_string)
+                .ok_or_else(|| key_err(format!("{key}[{}]", i + 1), "expected a string"))
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    if out.is_empty() {
+        return Err(key_err(key, "empty: expected at least one"));
+    }
+    Ok(out)
+}
+
+fn seeds(table: &toml::Table) -> Result<Vec<u64>, BatchError> {
+    let Some(v) = table.get("seeds") else {
+        return Ok(vec![1]);
+    };
+    let list = v
+        .as_array()
+        .ok_or_else(|| key_err("seeds", "expected a list of whole numbers, e.g. [1, 2, 3]"))?;
+    let out = list
+        .iter()
+        .enumerate()
+        .map(|(i, x)| match x.as_integer() {
+            Some(s) if s >= 0 => Ok(s as u64),
+            _ => Err(key_err(
+                format!("seeds[{}]", i + 1),
+                "expected a whole number >= 0",
+            )),
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    if out.is_empty() {
+        return Err(key_err("seeds", "empty: expected at least one"));
+    }
+    Ok(out)
+}
+
+fn record(v: &toml::Value, i: usize, base: &Path) -> Result<StudyRecord, BatchError> {
+    let at = format!("record[{}]", i + 1);
+    let t = v
+        .as_table()
+        .ok_or_else(|| key_err(&at, "expected a table ([[record]])"))?;
+    let path = t
+        .get("path")
+        .and_then(|p| p.as_str())
+        .ok_or_else(|| key_err(format!("{at}.path"), "missing: expected the record file"))?;
+    let path = base.join(path);
+    let name = match t.get("name") {
+        Some(n) => n
+            .as_str()
+            .ok_or_else(|| key_err(format!("{at}.name"), "expected a string"))?
+            .to_string(),
+        None => path
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_default(),
+    };
+    if name.is_empty() || name.starts_with('.') || name.contains(['/', '\\']) {
+        return Err(key_err(
+            format!("{at}.name"),
+            format!("`{name}`: expected a folder name (no slashes, not starting with a dot)"),
+        ));
+    }
+    let flags = flags_of(t, &format!("{at}."), &["path", "name"])?;
+    Ok(StudyRecord { name, path, flags })
+}
+
+impl Study {
+    /// Parses a manifest; record paths are resolved against `base` (the
+    /// manifest's folder).
+    pub fn parse(text: &str, base: &Path) -> Result<Self, BatchError> {
+        let table: toml::Table =
+            toml::from_str(text).map_err(|e| BatchError::Syntax(e.to_string()))?;
+        for k in table.keys() {
+            if !["models", "seeds", "fit", "record"].contains(&k.as_str()) {
+                return Err(key_err(
+                    k,
+                    "unknown key (expected models, seeds, [fit], [[record]])",
+                ));
+            }
+        }
+        let models = string_list(&table, "models")?;
+        let seeds = seeds(&table)?;
+        let flags = match table.get("fit") {
+            Some(toml::Value::Table(t)) => flags_of(t, "fit.", &[])?,
+            Some(_) => return Err(key_err("fit", "expected a table ([fit])")),
+            None => Vec::new(),
+        };
+        let list = match table.get("record") {
+            Some(toml::Value::Array(a)) if !a.is_empty() => a,
+            _ => {
+                return Err(key_err(
+                    "record",
+                    "missing: expected at least one [[record]] with a path",
+                ))
+            }
+        };
+        let records = list
+            .iter()
+            .enumerate()
+            .map(|(i, v)| record(v, i, base))
+            .collect::<Result<Vec<_>, _>>()?;
+        let mut names = BTreeSet::new();
+        for (i, r) in records.iter().enumerate() {
+            if !names.insert(r.name.clone()) {
+                return Err(key_err(
+                    format!("record[{}].name", i + 1),
+                    format!("`{}` names two records: give each its own name", r.name),
+                ));
+            }
+        }
+        Ok(Study {
+            records,
+            models,
+            seeds,
+            flags,
+        })
+    }
+
+    /// Every item, records x models x seeds, in the manifest's order.
+    pub fn items(&self) -> Vec<Item> {
+        let mut out = Vec::new();
+        for r in 0..self.records.len() {
+            for m in &self.models {
+                for &s in &self.seeds {
+                    out.push(Item {
+                        index: out.len(),
+                        record: r,
+                        model: m.clone(),
+                        seed: s,
+                    });
+                }
+            }
+        }
+        out
+    }
+
+    /// The `hbis fit` arguments of `item`, writing into `out`.
+    pub fn fit_args(&self, item: &Item, out: &Path) -> Vec<String> {
+        let r = &self.records[item.record];
+        let mut args = vec![
+            "--data".to_string(),
+            r.path.display().to_string(),
+            "--model".into(),
+            item.model.clone(),
+            "--seed".into(),
+            item.seed.to_string(),
+            "--out".into(),
+            out.display().to_string(),
+        ];
+        args.extend(self.flags.iter().cloned());
+        args.extend(r.flags.iter().cloned());
+        args
+    }
+}
+
+/// The columns of `summary.csv`, one row per item and parameter.
+pub const SUMMARY_COLUMNS: &[&str] = &[
+    "record",
+    "model",
+    "seed",
+    "parameter",
+    "map",
+    "mean",
+    "sd",
+    "q05",
+    "q50",
+    "q95",
+    "ess",
+    "rhat",
+    "converged",
+    "bic",
+    "sigma_hat",
+];
+
+/// The summary rows of one item from its `fit.json`: every parameter of
+/// the MAP, with the posterior's numbers when the fit sampled (empty cells
+/// otherwise). Nothing time-dependent is kept, so that a rerun gives the
+/// same rows.
+pub fn summary_rows(record: &str, model: &str, seed: u64, fit: &serde_json::Value) -> String {
+    let num = |v: &serde_json::Value| v.as_f64().map(|x| x.to_string()).unwrap_or_default();
+    let mut out = String::new();
+    let Some(map) = fit["map"].as_object() else {
+        return out;
+    };
+    let converged = match fit["sampling"]["converged"].as_bool() {
+        Some(c) => c.to_string(),
+        None => String::new(),
+    };
+    for (name, v) in map {
+        let p = &fit["posterior"][name];
+        let cells = [
+            csv_cell(record),
+            csv_cell(model),
+            seed.to_string(),
+            csv_cell(name),
+            num(v),
+            num(&p["mean"]),
+            num(&p["sd"]),
+            num(&p["q05"]),
+            num(&p["q50"]),
+            num(&p["q95"]),
+            num(&fit["sampling"]["ess"][name]),
+            num(&fit["sampling"]["rhat"][name]),
+            converged.clone(),
+            num(&fit["bic"]),
+            num(&fit["sigma_hat"]),
+        ];
+        let _ = writeln!(out, "{}", cells.join(","));
+    }
+    out
+}
+
+/// A CSV cell, quoted when it holds a comma, a quote or a line break.
+fn csv_cell(s: &str) -> String {
+    if s.contains([',', '"', '\n', '\r']) {
+        format!("\"{}\"", s.replace('"', "\"\""))
+    } else {
+        s.to_string()
+    }
+}
+
+/// The header line of `summary.csv`.
+pub fn summary_header() -> String {
+    SUMMARY_COLUMNS.join(",") + "\n"
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn study(text: &str) -> Result<Study, BatchError> {
+        Study::parse(text, Path::new("/s"))
+    }
+
+    #[test]
+    fn items_are_records_models_seeds_in_order_and_shards_partition_them() {
+        let s = study(
+            "models = [\"a\", \"b\"]\nseeds = [3, 4, 5]\n[[record]]\npath = \"x.csv\"\n[[record]]\npath = \"y/z.csv\"\nname = \"zz\"\n",
+        )
+        .unwrap();
+        let items = s.items();
+        assert_eq!(items.len(), 12);
+        assert_eq!(
+            (items[0].record, items[0].model.as_str(), items[0].seed),
+            (0, "a", 3)
+        );
+        assert_eq!(
+            (items[5].record, items[5].model.as_str(), items[5].seed),
+            (0, "b", 5)
+        );
+        assert_eq!(items[6].folder(&s), Path::new("zz/a/seed-3"));
+        assert_eq!(s.records[1].path, Path::new("/s/y/z.csv"));
+        for n in 1..=5 {
+            let mut seen = vec![0; items.len()];
+            for i in 1..=n {
+                let sh = Shard { index: i, count: n };
+                for it in items.iter().filter(|it| sh.holds(it)) {
+                    seen[it.index] += 1;
+                }
+            }
+            assert!(seen.iter().all(|&c| c == 1), "{n} shards: {seen:?}");
+        }
+    }
+
+    #[test]
+    fn fit_options_become_flags_study_first_then_the_record_each_sorted_by_key() {
+        let s = study(
+            "models = [\"m\"]\n[fit]\nensembles = 2\nmap-only = true\nevidence = false\ntau-multiple = 20.5\n[[record]]\npath = \"x.csv\"\nreleased-force = 1050\naccel-units = \"g\"\n",
+        )
+        .unwrap();
+        let args = s.fit_args(&s.items()[0], Path::new("out/x"));
+        assert_eq!(
+            args.join(" "),
+            "--data /s/x.csv --model m --seed 1 --out out/x --ensembles 2 --map-only --tau-multiple 20.5 --accel-units g --released-force 1050"
+        );
+    }
+
+    #[test]
+    fn bad_manifests_name_the_key() {
+        for (text, key) in [
+            ("seeds = [1]\n[[record]]\npath = \"x\"\n", "`models`"),
+            ("models = []\n[[record]]\npath = \"x\"\n", "`models`: empty"),
+            ("models = [\"m\"]\n", "`record`"),
+            (
+                "models = [\"m\"]\n[[record]]\nname = \"x\"\n",
+                "`record[1].path`",
+            ),
+            (
+                "models = [\"m\"]\nseeds = [1, -2]\n[[record]]\npath = \"x\"\n",
+                "`seeds[2]`",
+            ),
+            (
+                "models = [\"m\"]\n[fit]\nwalkrs = 4\n[[record]]\npath = \"x\"\n",
+                "`fit.walkrs`",
+            ),
+            (
+                "models = [\"m\"]\n[fit]\nmap-only = 1\n[[record]]\npath = \"x\"\n",
+                "`fit.map-only`: expected true or false",
+            ),
+            (
+                "models = [\"m\"]\n[[record]]\npath = \"x\"\n[[record]]\npath = \"d/x\"\n",
+                "`record[2].name`: `x` names two records",
+            ),
+            (
+                "models = [\"m\"]\n[[record]]\npath = \"x\"\nname = \"../up\"\n",
+                "`record[1].name`",
+            ),
+            ("modles = [\"m\"]\n", "`modles`: unknown key"),
+            ("models = [\"m\"\n", "not a TOML"),
+        ] {
+            let e = study(text).unwrap_err().to_string();
+            assert!(e.contains(key), "{text:?}: {e}");
+        }
+    }
+
+    #[test]
+    fn shards_parse_as_i_of_n() {
+        assert_eq!(
+            "3/4".parse::<Shard>().unwrap(),
+            Shard { index: 3, count: 4 }
+        );
+        for bad in ["0/2", "3/2", "1/0", "1", "a/b", "1/2/3"] {
+            assert!(bad.parse::<Shard>().is_err(), "{bad}");
+        }
+    }
+
+    #[test]
+    fn summary_rows_hold_the_map_and_the_posterior() {
+        let fit: serde_json::Value = serde_json::from_str(
+            r#"{"map": {"u0": 0.1, "f0": 0.5}, "bic": -10.5, "sigma_hat": 0.01,
+                "posterior": {"u0": {"mean": 0.11, "sd": 0.001, "q05": 0.109, "q50": 0.11, "q95": 0.112},
+                              "f0": {"mean": 0.51, "sd": 0.002, "q05": 0.5, "q50": 0.51, "q95": 0.52}},
+                "sampling": {"converged": true, "ess": {"u0": 900.0, "f0": 800.0}, "rhat": {"u0": 1.001, "f0": 1.002}}}"#,
+        )
+        .unwrap();
+        let rows = summary_rows("rec,1", "m", 7, &fit);
+        assert_eq!(
+            rows,
+            "\"rec,1\",m,7,f0,0.5,0.51,0.002,0.5,0.51,0.52,800,1.002,true,-10.5,0.01\n\"rec,1\",m,7,u0,0.1,0.11,0.001,0.109,0.11,0.112,900,1.001,true,-10.5,0.01\n"
+        );
+        let map_only: serde_json::Value =
+            serde_json::from_str(r#"{"map": {"u0": 0.1}, "bic": -1.0, "sigma_hat": 0.02}"#)
+                .unwrap();
+        assert_eq!(
+            summary_rows("r", "m", 1, &map_only),
+            "r,m,1,u0,0.1,,,,,,,,,-1,0.02\n"
+        );
+    }
+}
