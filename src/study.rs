@@ -128,6 +128,8 @@ pub struct Fit {
     pub physical: Option<Vec<(String, ParamSummary)>>,
     /// The physical quantities at the MAP, if forces were given.
     pub physical_map: Option<Physical>,
+    /// Released force `F0^n` and static friction `F_fS` (kN), if given.
+    pub forces: Option<(f64, f64)>,
 }
 
 impl Fit {
@@ -192,6 +194,7 @@ pub fn fit_record(
         design: None,
         physical: None,
         physical_map,
+        forces: options.forces,
     };
     let Some(settings) = &options.sample else {
         return Ok(fit);
@@ -376,25 +379,40 @@ fn physical_posterior(
     released: f64,
     friction: f64,
 ) -> Result<Vec<(String, ParamSummary)>, StudyError> {
-    let model = posterior.model();
-    let spec = model.spec();
     let points = sample.points();
     let stride = (points.len() / 20_000).max(1);
     let mut cols: Vec<Vec<f64>> = vec![Vec::new(); 6];
     for x in points.iter().step_by(stride) {
-        let p = model
-            .core_params(posterior.model_part(x))
-            .map_err(SimError::from)?;
-        let q = Physical::from_params(&spec, &p, released, friction)?;
-        for (c, v) in cols.iter_mut().zip([q.m, q.k0, q.k1, q.k2, q.kf, q.c]) {
+        let q = physical_of(posterior, x, released, friction)?;
+        for (c, v) in cols.iter_mut().zip(q) {
             c.push(v);
         }
     }
-    Ok(["m", "k0", "k1", "k2", "kF", "c"]
+    Ok(PHYSICAL_NAMES
         .iter()
         .zip(cols)
         .map(|(n, c)| (n.to_string(), ParamSummary::from_draws(&c)))
         .collect())
+}
+
+/// The names of eq. 8.1's quantities per draw, in [`physical_of`]'s order.
+pub const PHYSICAL_NAMES: [&str; 6] = ["m", "k0", "k1", "k2", "kF", "c"];
+
+/// Eq. 8.1 of one posterior point `x` (all of the posterior's parameters):
+/// `m, k0, k1, k2, kF, c` in Table 8.2's units, from the released force and
+/// the static friction (kN).
+pub fn physical_of(
+    posterior: &Posterior<Model>,
+    x: &[f64],
+    released: f64,
+    friction: f64,
+) -> Result<[f64; 6], StudyError> {
+    let model = posterior.model();
+    let p = model
+        .core_params(posterior.model_part(x))
+        .map_err(SimError::from)?;
+    let q = Physical::from_params(&model.spec(), &p, released, friction)?;
+    Ok([q.m, q.k0, q.k1, q.k2, q.kf, q.c])
 }
 
 /// Lower and upper edges of a band, one value per sample.

@@ -304,8 +304,6 @@ fn kept_arrays(
     let mut draws = Array3::<f64>::zeros((chains, per, dim));
     let mut lp = Array3::<f64>::zeros((chains, per, 1));
     let mut phys = forces.map(|_| Array3::<f64>::zeros((chains, per, 6)));
-    let model = fit.posterior.model();
-    let spec = model.spec();
     for (e, c) in sample.chains.iter().enumerate() {
         for w in 0..walkers {
             for (j, &s) in steps.iter().enumerate() {
@@ -316,12 +314,8 @@ fn kept_arrays(
                 }
                 lp[[e, i, 0]] = c.log_prob_at(s, w);
                 if let (Some(p), Some((f, st))) = (phys.as_mut(), forces) {
-                    let core = model
-                        .core_params(fit.posterior.model_part(x))
-                        .map_err(err)?;
-                    let q = hbis::model::physical::Physical::from_params(&spec, &core, f, st)
-                        .map_err(err)?;
-                    for (k, v) in [q.m, q.k0, q.k1, q.k2, q.kf, q.c].into_iter().enumerate() {
+                    let q = hbis::study::physical_of(&fit.posterior, x, f, st).map_err(err)?;
+                    for (k, v) in q.into_iter().enumerate() {
                         p[[e, i, k]] = v;
                     }
                 }

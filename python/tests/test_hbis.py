@@ -106,9 +106,11 @@ def test_posterior_is_the_chain_files(fitted, cli_fit):
         with open(cli_fit / "chains" / f"chain-{c + 1}.csv") as f:
             rows = [r for r in csv.reader(f) if r and not r[0].startswith("#")]
         header, body = rows[0], np.array(rows[1:], dtype=float)
-        assert header[2:] == fitted.names
-        assert body.shape == (draws, 2 + dim)
-        np.testing.assert_array_equal(body[:, 2:], fitted.posterior[c])
+        # The parameters, then eq. 8.1 per draw (the fit was given forces).
+        assert header[2:] == fitted.names + list(hbis.PHYSICAL)
+        assert body.shape == (draws, 2 + dim + 6)
+        np.testing.assert_array_equal(body[:, 2 : 2 + dim], fitted.posterior[c])
+        np.testing.assert_array_equal(body[:, 2 + dim :], fitted.physical()[c])
         np.testing.assert_array_equal(body[:, 0], fitted.log_prob[c])
 
 
@@ -239,3 +241,24 @@ def test_a_study_from_a_process_pool_and_dask_equals_hbis_batch(tmp_path):
         cli = [(r["record"], r["model"], int(r["seed"]), r["parameter"], float(r["map"])) for r in csv.DictReader(f)]
     assert cli == pool_rows
     assert len(cli) == 4 * 6
+
+
+def test_the_uq_study_notebook_runs_and_its_output_holds(tmp_path):
+    """examples/python/uq_study.py (quick sampler): every fit converged by
+    ArviZ's R-hat, the table and the figure written, coverage printed."""
+    import re
+    import sys
+
+    pytest.importorskip("matplotlib")
+    o = subprocess.run([sys.executable, str(ROOT / "examples/python/uq_study.py"), "--quick", str(tmp_path)],
+                       capture_output=True, text=True, cwd=tmp_path)
+    assert o.returncode == 0, o.stderr
+    m = re.search(r"covering the truth: (\d+) of 45", o.stdout)
+    assert m, o.stdout
+    # 45 intervals of nominal 90 %: were they independent, fewer than 33
+    # covered would have probability below 1e-3 (the seeds are fixed).
+    assert int(m.group(1)) >= 33, o.stdout
+    rhat = float(re.search(r"largest R-hat ([0-9.]+)", o.stdout).group(1))
+    assert rhat <= 1.01, o.stdout
+    assert (tmp_path / "forest.png").stat().st_size > 10_000
+    assert len((tmp_path / "summary.csv").read_text().splitlines()) == 1 + 45

@@ -373,12 +373,24 @@ pub fn write_outputs(
         let every = chains
             .thin
             .unwrap_or_else(|| hbis::report::cmdstan::auto_thin(sample));
+        // Eq. 8.1 per draw, when the fit was given the forces.
+        let forces = fit.forces;
+        let of = |x: &[f64]| match forces {
+            Some((f, s)) => hbis::study::physical_of(&fit.posterior, x, f, s)
+                .map_or_else(|_| vec![f64::NAN; 6], |q| q.to_vec()),
+            None => Vec::new(),
+        };
+        let derived = hbis::report::cmdstan::Derived {
+            names: &hbis::study::PHYSICAL_NAMES,
+            of: &of,
+        };
+        let derived = forces.map(|_| &derived);
         for e in 0..sample.chains.len() {
             let name = format!("chains/chain-{}.csv", e + 1);
             out.write_with(&name, |tmp| {
                 let f = std::fs::File::create(tmp)?;
                 let mut w = std::io::BufWriter::new(f);
-                hbis::report::cmdstan::write_chain(&mut w, sample, e, spec, seed, every)?;
+                hbis::report::cmdstan::write_chain(&mut w, sample, e, spec, seed, every, derived)?;
                 w.into_inner().map_err(|e| e.into_error())?.sync_all()
             })?;
             chain_files.push(name);

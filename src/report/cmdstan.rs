@@ -58,8 +58,18 @@ fn kept_steps(sample: &PosteriorSample, thin: usize) -> impl Iterator<Item = usi
     (sample.burn..sample.steps()).step_by(thin.max(1))
 }
 
+/// Quantities computed from each draw, written after the parameters as
+/// CmdStan writes generated quantities: their names, and the function of a
+/// draw's parameter vector (NaN where a draw has none).
+pub struct Derived<'a> {
+    /// Column names.
+    pub names: &'a [&'a str],
+    /// The values of one draw, one per name.
+    pub of: &'a (dyn Fn(&[f64]) -> Vec<f64> + Sync),
+}
+
 /// Writes ensemble `e` of `sample` as CmdStan CSV, walker-major, every
-/// `thin`-th step.
+/// `thin`-th step, with the `derived` quantities of each draw if given.
 pub fn write_chain(
     mut out: impl Write,
     sample: &PosteriorSample,
@@ -67,6 +77,7 @@ pub fn write_chain(
     model: &str,
     seed: u64,
     thin: usize,
+    derived: Option<&Derived>,
 ) -> std::io::Result<()> {
     let c = &sample.chains[e];
     let walkers = c.walkers();
@@ -100,6 +111,9 @@ pub fn write_chain(
     for n in &sample.names {
         write!(out, ",{n}")?;
     }
+    for n in derived.map_or(&[][..], |d| d.names) {
+        write!(out, ",{n}")?;
+    }
     writeln!(out)?;
     for w in 0..walkers {
         for s in steps.clone() {
@@ -107,6 +121,11 @@ pub fn write_chain(
             write!(out, "{},{}", c.log_prob_at(s, w), u8::from(moved))?;
             for v in c.get(s, w) {
                 write!(out, ",{v}")?;
+            }
+            if let Some(d) = derived {
+                for v in (d.of)(c.get(s, w)) {
+                    write!(out, ",{v}")?;
+                }
             }
             writeln!(out)?;
         }
@@ -174,7 +193,7 @@ mod tests {
     fn rows_are_walker_major_and_thinned_after_the_burn_in() {
         let s = sample(4);
         let mut out = Vec::new();
-        write_chain(&mut out, &s, 0, "m", 1, 3).unwrap();
+        write_chain(&mut out, &s, 0, "m", 1, 3, None).unwrap();
         let text = String::from_utf8(out).unwrap();
         // Steps 4, 7 of walker 0, then of walker 1, then of walker 2.
         assert_eq!(
@@ -186,7 +205,23 @@ mod tests {
         assert!(text.contains("#     num_samples = 6\n"));
         assert_eq!(auto_thin(&s), 2);
         let mut all = Vec::new();
-        write_chain(&mut all, &s, 0, "m", 1, 1).unwrap();
+        write_chain(&mut all, &s, 0, "m", 1, 1, None).unwrap();
         assert_eq!(rows(&String::from_utf8(all).unwrap()).len(), 18);
+    }
+
+    #[test]
+    fn derived_quantities_follow_the_parameters_on_every_row() {
+        let s = sample(8);
+        let twice = |x: &[f64]| vec![2.0 * x[0]];
+        let d = Derived {
+            names: &["twice_x"],
+            of: &twice,
+        };
+        let mut out = Vec::new();
+        write_chain(&mut out, &s, 0, "m", 1, 1, Some(&d)).unwrap();
+        let text = String::from_utf8(out).unwrap();
+        assert!(text.contains("lp__,accept_stat__,x,twice_x\n"), "{text}");
+        // The last column is twice the one before it: steps 8, 9 of each walker.
+        assert_eq!(rows(&text), [16.0, 18.0, 216.0, 218.0, 416.0, 418.0]);
     }
 }

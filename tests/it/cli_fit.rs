@@ -165,12 +165,13 @@ fn fit_json_has_the_documented_keys_and_one_seed_gives_one_result() {
     assert!(a["identifiability"]["f0"]["sd_ratio"].is_f64());
     assert_eq!(a["sampling"]["ensembles"], 4);
     assert_eq!(a["sampling"]["steps"], 300);
-    // The chains are CmdStan CSV with lp__ first and one row per kept draw.
+    // The chains are CmdStan CSV with lp__ first and one row per kept draw;
+    // with forces given, eq. 8.1 of each draw follows the parameters.
     let chain = std::fs::read_to_string(d.path().join("one/chains/chain-1.csv")).unwrap();
     let header = chain.lines().find(|l| !l.starts_with('#')).unwrap();
-    assert!(
-        header.starts_with("lp__,accept_stat__,u0,uy,uF0,rF0,zeta0,f0,f1,f2,u3"),
-        "{header}"
+    assert_eq!(
+        header,
+        "lp__,accept_stat__,u0,uy,uF0,rF0,zeta0,f0,f1,f2,u3,m,k0,k1,k2,kF,c"
     );
     let rows = chain.lines().filter(|l| !l.starts_with('#')).count() - 1;
     let burn = a["sampling"]["burn_in"].as_u64().unwrap() as usize;
