@@ -12,6 +12,7 @@ use hbis::criticism::{
 use hbis::data::{Aligned, ReleaseSource, Warning};
 use hbis::inference::{MapSettings, Noise};
 use hbis::model::{ForwardModel, Model, Registry};
+use hbis::report::html::CriticismInfo;
 use hbis::report::json::DataInfo;
 use hbis::report::outdir::{InputEntry, OutDir};
 use serde::Serialize;
@@ -184,17 +185,48 @@ pub fn diagnose(a: Args) -> Result<()> {
     };
     let text = serde_json::to_string_pretty(&report)? + "\n";
     dir.write("diagnosis.json", text.as_bytes())?;
-    residual_figure(&mut dir, "residual.png", &model, &fit, &data)?;
+    let mut svgs = Vec::new();
+    if let Some(svg) = residual_figure(&mut dir, "residual.png", &model, &fit, &data)? {
+        svgs.push((
+            svg,
+            "Measured and model acceleration; the residual below.".to_string(),
+        ));
+    }
     #[cfg(feature = "figures")]
-    dir.write_with("residual-map.png", |tmp| {
-        hbis::report::figures::residual_map_figure(
-            tmp,
-            &diagnosis.map_u_edges,
-            &diagnosis.map_v_edges,
-            &diagnosis.map_force,
-            &format!("{}: restoring-force residual", model.name()),
-        )
-    })?;
+    {
+        let map = |tmp: &std::path::Path| {
+            hbis::report::figures::residual_map_figure(
+                tmp,
+                &diagnosis.map_u_edges,
+                &diagnosis.map_v_edges,
+                &diagnosis.map_force,
+                &format!("{}: restoring-force residual", model.name()),
+            )
+        };
+        dir.write_with("residual-map.png", map)?;
+        svgs.push((
+            hbis::report::figures::svg_text(map)?,
+            "Mean residual force per unit mass over displacement and velocity (blue negative, red positive, grey: no sample)."
+                .to_string(),
+        ));
+    }
+    let noise_choice = report.noise_choice.as_ref().map(|c| c.sentence());
+    let info = CriticismInfo {
+        source: &report.data.source,
+        model: &report.model,
+        seed: a.seed,
+        noise: report.noise,
+        noise_choice: noise_choice.as_deref(),
+    };
+    let html = hbis::report::html::diagnosis_page(
+        &info,
+        &fit,
+        &diagnosis,
+        &ranked,
+        &report.warnings,
+        &svgs,
+    );
+    dir.write("report.html", html.as_bytes())?;
     let path = dir.path("diagnosis.json");
     dir.finish(
         "diagnose",
@@ -359,49 +391,74 @@ pub fn write_ladder(
     };
     let text = serde_json::to_string_pretty(&report)? + "\n";
     out.write("ladder.json", text.as_bytes())?;
-    for (k, s) in steps.iter().enumerate() {
-        let model = Registry::builtin().parse(&s.model)?;
-        let at_lag = data.clone().with_lag(s.lag);
-        residual_figure(out, &format!("step-{k}.png"), &model, &s.fit, &at_lag)?;
-    }
+    let mut svgs = Vec::new();
     #[cfg(feature = "figures")]
     {
         let labels: Vec<String> = steps.iter().map(|s| s.model.clone()).collect();
         let e2: Vec<f64> = steps.iter().map(|s| s.e2).collect();
         let z: Vec<f64> = steps.iter().map(|s| s.log_evidence).collect();
-        out.write_with("ladder.png", |tmp| {
-            hbis::report::figures::ladder_figure(tmp, &labels, &e2, &z)
-        })?;
+        let draw =
+            |tmp: &std::path::Path| hbis::report::figures::ladder_figure(tmp, &labels, &e2, &z);
+        out.write_with("ladder.png", draw)?;
+        svgs.push((
+            hbis::report::figures::svg_text(draw)?,
+            "e2 and the log-evidence at each step.".to_string(),
+        ));
     }
+    for (k, s) in steps.iter().enumerate() {
+        let model = Registry::builtin().parse(&s.model)?;
+        let at_lag = data.clone().with_lag(s.lag);
+        if let Some(svg) = residual_figure(out, &format!("step-{k}.png"), &model, &s.fit, &at_lag)?
+        {
+            svgs.push((svg, format!("Step {k}: {}", s.model)));
+        }
+    }
+    let noise_choice = report.noise_choice.as_ref().map(|c| c.sentence());
+    let info = CriticismInfo {
+        source: &report.data.source,
+        model: start,
+        seed,
+        noise: report.noise,
+        noise_choice: noise_choice.as_deref(),
+    };
+    let html = hbis::report::html::ladder_page(&info, steps, &report.warnings, &svgs);
+    out.write("report.html", html.as_bytes())?;
     Ok(text)
 }
 
+/// Writes the measured-against-model figure `name` and returns it as SVG
+/// for report.html (`None` without the `figures` feature).
 fn residual_figure(
     out: &mut OutDir,
     name: &str,
     model: &Model,
     fit: &ModelFit,
     data: &Aligned,
-) -> Result<()> {
+) -> Result<Option<String>> {
     #[cfg(feature = "figures")]
     {
         let mut accel = vec![0.0; data.a.len()];
         data.model_accel_into(model, fit.model_theta(model), &mut accel)?;
         let t: Vec<f64> = (0..accel.len()).map(|i| data.time(i)).collect();
-        out.write_with(name, |tmp| {
+        let (measured, accel) = (data.in_record_sign(&data.a), data.in_record_sign(&accel));
+        let draw = |tmp: &std::path::Path| {
             hbis::report::figures::fit_figure(
                 tmp,
                 &t,
-                &data.in_record_sign(&data.a),
-                &data.in_record_sign(&accel),
+                &measured,
+                &accel,
                 None,
                 &format!("{}: e2 = {:.5}", model.name(), fit.e2),
             )
-        })?;
+        };
+        out.write_with(name, draw)?;
+        Ok(Some(hbis::report::figures::svg_text(draw)?))
     }
     #[cfg(not(feature = "figures"))]
-    let _ = (out, name, model, fit, data);
-    Ok(())
+    {
+        let _ = (out, name, model, fit, data);
+        Ok(None)
+    }
 }
 
 pub fn print_diagnosis(

@@ -442,10 +442,13 @@ pub fn write_outputs(
         csv.push('\n');
     }
     out.write("fit.csv", csv.as_bytes())?;
+    // Each figure as PNG, and as SVG (fewer points) for report.html.
+    #[allow(unused_mut)]
+    let mut svgs: Vec<(String, String)> = Vec::new();
     #[cfg(feature = "figures")]
     {
         use hbis::report::figures;
-        out.write_with("fit.png", |tmp| {
+        let fit_fig = |tmp: &Path| {
             figures::fit_figure(
                 tmp,
                 &t,
@@ -454,12 +457,18 @@ pub fn write_outputs(
                 band.as_ref().map(|(l, h)| (l.as_slice(), h.as_slice())),
                 &format!("{spec}: MAP fit, e2 = {:.5}", fit.map.eval.e2),
             )
-        })?;
+        };
+        out.write_with("fit.png", fit_fig)?;
+        svgs.push((
+            figures::svg_text(fit_fig)?,
+            "Measured and model acceleration with the 90 % predictive band; the residual below."
+                .into(),
+        ));
         if let Some(sample) = &fit.sample {
             let points = sample.points();
-            let stride = (points.len() / 3000).max(1);
-            let thin: Vec<Vec<f64>> = points.into_iter().step_by(stride).collect();
-            out.write_with("corner.png", |tmp| {
+            let corner = |tmp: &Path, n: usize| {
+                let stride = (points.len() / n).max(1);
+                let thin: Vec<Vec<f64>> = points.iter().step_by(stride).cloned().collect();
                 figures::corner_figure(
                     tmp,
                     &sample.names,
@@ -467,28 +476,51 @@ pub fn write_outputs(
                     Some(&fit.map.theta),
                     &format!("{spec}: posterior (red: MAP)"),
                 )
-            })?;
+            };
+            out.write_with("corner.png", |tmp| corner(tmp, 3000))?;
+            svgs.push((
+                figures::svg_text(|tmp| corner(tmp, 400))?,
+                "Posterior: marginal histograms and pairwise draws (400 of them here; corner.png has 3,000); red: the MAP.".into(),
+            ));
             let c = &sample.chains[0];
             let walkers: Vec<usize> = (0..c.walkers()).step_by((c.walkers() / 8).max(1)).collect();
-            let traces: Vec<Vec<Vec<f64>>> = (0..c.dim())
-                .map(|k| {
-                    walkers
-                        .iter()
-                        .map(|&w| (0..c.steps()).map(|s| c.get(s, w)[k]).collect())
-                        .collect()
-                })
-                .collect();
-            out.write_with("trace.png", |tmp| {
+            let traces = |every: usize| -> Vec<Vec<Vec<f64>>> {
+                (0..c.dim())
+                    .map(|k| {
+                        walkers
+                            .iter()
+                            .map(|&w| {
+                                (0..c.steps())
+                                    .step_by(every)
+                                    .map(|s| c.get(s, w)[k])
+                                    .collect()
+                            })
+                            .collect()
+                    })
+                    .collect()
+            };
+            let trace = |tmp: &Path, every: usize| {
                 figures::trace_figure(
                     tmp,
                     &sample.names,
-                    &traces,
-                    sample.burn,
+                    &traces(every),
+                    sample.burn / every,
                     &format!("{spec}: traces of ensemble 1 (black line: end of burn-in)"),
                 )
-            })?;
+            };
+            out.write_with("trace.png", |tmp| trace(tmp, 1))?;
+            let every = (c.steps() / 400).max(1);
+            svgs.push((
+                figures::svg_text(|tmp| trace(tmp, every))?,
+                format!("Traces of some walkers of ensemble 1 (every {every}-th step here); the black line ends the burn-in."),
+            ));
         }
     }
+    let names = fit.names().to_vec();
+    out.write(
+        "report.html",
+        hbis::report::html::fit_page(&report, &names, &svgs).as_bytes(),
+    )?;
     Ok(report)
 }
 

@@ -658,6 +658,28 @@ fn draw_map<DB: DrawingBackend>(
     root.present().map_err(e)
 }
 
+/// The SVG text of a figure: `draw` writes it to a temporary `.svg` file
+/// (removed afterwards), as for any output path. For `report.html`.
+pub fn svg_text(
+    draw: impl FnOnce(&Path) -> Result<(), FigureError>,
+) -> Result<String, FigureError> {
+    use std::sync::atomic::{AtomicUsize, Ordering};
+    static COUNT: AtomicUsize = AtomicUsize::new(0);
+    let path = std::env::temp_dir().join(format!(
+        "hbis-{}-{}.svg",
+        std::process::id(),
+        COUNT.fetch_add(1, Ordering::Relaxed)
+    ));
+    let result = draw(&path).and_then(|()| {
+        std::fs::read_to_string(&path).map_err(|e| FigureError::Draw {
+            path: path.clone(),
+            message: e.to_string(),
+        })
+    });
+    let _ = std::fs::remove_file(&path);
+    result
+}
+
 /// The lowercase extension (`png` or `svg`), with the font registered.
 fn checked_extension(path: &Path) -> Result<String, FigureError> {
     let ext = path

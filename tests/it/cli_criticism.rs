@@ -45,6 +45,17 @@ fn diagnose_writes_the_documented_keys() {
     assert_eq!(v, file);
     assert_eq!(v["model"], "trilinear+lcfm");
     assert!(v["e2"].is_f64() && v["verdict"].is_string());
+    let html = std::fs::read_to_string(d.path().join("dx/report.html")).unwrap();
+    crate::bin::assert_self_contained(&html, 2);
+    assert!(
+        html.contains(&escape(v["verdict"].as_str().unwrap())),
+        "verdict"
+    );
+    assert!(
+        html.contains(&escape(v["conclusion"].as_str().unwrap())),
+        "conclusion"
+    );
+    assert!(html.contains("<td>viscous</td>"), "candidates table");
     assert!(v["residual"]["dominant_frequency_hz"].is_f64());
     let c = v["candidates"].as_array().unwrap();
     assert_eq!(c[0]["effect"], "viscous", "{c:?}");
@@ -137,6 +148,17 @@ fn ladder_writes_its_steps() {
     for f in ["ladder.png", "step-0.png", "step-1.png"] {
         assert!(d.path().join("lx").join(f).exists(), "{f}");
     }
+    // The page: the ladder figure and one figure per step.
+    let html = std::fs::read_to_string(d.path().join("lx/report.html")).unwrap();
+    crate::bin::assert_self_contained(&html, 1 + steps.len());
+    for s in steps {
+        let m = s["model"].as_str().unwrap();
+        assert!(html.contains(&format!("<td>{m}</td>")), "{m}");
+    }
+}
+
+fn escape(s: &str) -> String {
+    hbis::report::html::escape(s)
 }
 
 #[test]

@@ -187,6 +187,13 @@ fn fit_json_has_the_documented_keys_and_one_seed_gives_one_result() {
     assert_eq!(a["sampling"]["chain_layout"], "walker-major");
     assert_eq!(rows, (300 - burn).div_ceil(thin) * 20);
     assert!(chain.contains(&format!("#     thin = {thin}\n")));
+    // The page to hand over: tables, the explanation, three figures.
+    let html = std::fs::read_to_string(d.path().join("one/report.html")).unwrap();
+    crate::bin::assert_self_contained(&html, 3);
+    let expl = hbis::report::html::escape(a["explanation"].as_str().unwrap());
+    assert!(html.contains(&expl), "explanation");
+    assert!(html.contains("<th>R-hat</th>") && html.contains("<td>u0</td>"));
+    assert!(html.contains("Physical quantities (eq. 8.1)"));
     // The checkpoint is gone after a successful run.
     assert!(!d.path().join("one/checkpoint").exists());
     assert!(stderr(&one).contains("release detected just before the sample at t = 0.4 s"));

@@ -22,3 +22,20 @@ pub fn hbis(dir: &Path, args: &[&str]) -> Output {
 pub fn stderr(o: &Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()
 }
+
+/// A report.html holds no script and loads nothing (the only URL is the
+/// SVG namespace), and inlines `figures` SVG figures when the `figures`
+/// feature is on.
+pub fn assert_self_contained(html: &str, figures: usize) {
+    assert!(html.starts_with("<!DOCTYPE html>"));
+    assert!(!html.contains("<script"), "a script");
+    let urls = html.matches("http").count();
+    let namespaces = html.matches("http://www.w3.org/").count();
+    assert_eq!(urls, namespaces, "a URL other than the SVG namespace");
+    let expected = if cfg!(feature = "figures") {
+        figures
+    } else {
+        0
+    };
+    assert_eq!(html.matches("<figure><svg").count(), expected, "figures");
+}
