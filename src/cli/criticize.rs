@@ -186,7 +186,15 @@ pub fn diagnose(a: Args) -> Result<()> {
     let text = serde_json::to_string_pretty(&report)? + "\n";
     dir.write("diagnosis.json", text.as_bytes())?;
     let mut svgs = Vec::new();
-    if let Some(svg) = residual_figure(&mut dir, "residual.png", &model, &fit, &data)? {
+    if let Some(svg) = residual_figure(
+        &mut dir,
+        "residual.png",
+        &model,
+        &fit,
+        &data,
+        None,
+        &model.name(),
+    )? {
         svgs.push((
             svg,
             "Measured and model acceleration; the residual below.".to_string(),
@@ -394,7 +402,14 @@ pub fn write_ladder(
     let mut svgs = Vec::new();
     #[cfg(feature = "figures")]
     {
-        let labels: Vec<String> = steps.iter().map(|s| s.model.clone()).collect();
+        // Each step named by the effect it added.
+        let labels: Vec<String> = steps
+            .iter()
+            .map(|s| match &s.added {
+                Some(effect) => format!("+{effect}"),
+                None => s.model.clone(),
+            })
+            .collect();
         let e2: Vec<f64> = steps.iter().map(|s| s.e2).collect();
         let z: Vec<f64> = steps.iter().map(|s| s.log_evidence).collect();
         let draw =
@@ -405,12 +420,40 @@ pub fn write_ladder(
             "e2 and the log-evidence at each step.".to_string(),
         ));
     }
-    for (k, s) in steps.iter().enumerate() {
+    // One residual scale for every step (the largest residual of any), and
+    // the last step's residual RMS as the noise floor, so the error is seen
+    // to fall towards it.
+    let mut half = 0.0f64;
+    let mut models = Vec::new();
+    for s in steps {
         let model = Registry::builtin().parse(&s.model)?;
         let at_lag = data.clone().with_lag(s.lag);
-        if let Some(svg) = residual_figure(out, &format!("step-{k}.png"), &model, &s.fit, &at_lag)?
-        {
-            svgs.push((svg, format!("Step {k}: {}", s.model)));
+        let mut accel = vec![0.0; at_lag.a.len()];
+        at_lag.model_accel_into(&model, s.fit.model_theta(&model), &mut accel)?;
+        for (m, a) in at_lag.a.iter().zip(&accel) {
+            half = half.max((m - a).abs());
+        }
+        models.push((model, at_lag));
+    }
+    let floor = steps.last().map_or(0.0, |s| {
+        (s.fit.e2 * data.energy() / data.a.len().max(1) as f64).sqrt()
+    });
+    for (k, (s, (model, at_lag))) in steps.iter().zip(models).enumerate() {
+        let title = match &s.added {
+            Some(effect) => format!("step {k}: {} (added {effect})", s.model),
+            None => format!("step {k}: {}", s.model),
+        };
+        let figure = residual_figure(
+            out,
+            &format!("step-{k}.png"),
+            &model,
+            &s.fit,
+            &at_lag,
+            Some((half, floor)),
+            &title,
+        )?;
+        if let Some(svg) = figure {
+            svgs.push((svg, title));
         }
     }
     let noise_choice = report.noise_choice.as_ref().map(|c| c.sentence());
@@ -428,12 +471,17 @@ pub fn write_ladder(
 
 /// Writes the measured-against-model figure `name` and returns it as SVG
 /// for report.html (`None` without the `figures` feature).
+/// `scale`: the residual axis and noise floor shared by a ladder's steps;
+/// `None` for the figure's own (a diagnosis).
+#[cfg_attr(not(feature = "figures"), allow(unused_variables))]
 fn residual_figure(
     out: &mut OutDir,
     name: &str,
     model: &Model,
     fit: &ModelFit,
     data: &Aligned,
+    scale: Option<(f64, f64)>,
+    title: &str,
 ) -> Result<Option<String>> {
     #[cfg(feature = "figures")]
     {
@@ -441,6 +489,19 @@ fn residual_figure(
         data.model_accel_into(model, fit.model_theta(model), &mut accel)?;
         let t: Vec<f64> = (0..accel.len()).map(|i| data.time(i)).collect();
         let (measured, accel) = (data.in_record_sign(&data.a), data.in_record_sign(&accel));
+        let sigma = (fit.e2 * data.energy() / data.a.len().max(1) as f64).sqrt();
+        let scale = match scale {
+            Some((half, floor)) => hbis::report::figures::ResidualScale {
+                half,
+                sigma: floor,
+                label: "±σ of the last step (noise floor estimate)",
+            },
+            None => hbis::report::figures::ResidualScale {
+                half: 0.0,
+                sigma,
+                label: "±σ: residual RMS",
+            },
+        };
         let draw = |tmp: &std::path::Path| {
             hbis::report::figures::fit_figure(
                 tmp,
@@ -448,7 +509,8 @@ fn residual_figure(
                 &measured,
                 &accel,
                 None,
-                &format!("{}: e2 = {:.5}", model.name(), fit.e2),
+                Some(scale),
+                &format!("{title}: e2 = {:.5}", fit.e2),
             )
         };
         out.write_with(name, draw)?;

@@ -212,6 +212,7 @@ fn identify(out: &mut impl Write, dir: &mut OutDir) -> Result<()> {
         Noise::White,
         record_warnings,
         &super::fit::ChainArgs::default(),
+        Some(&truth),
     )?;
     super::fit::drop_checkpoint(&fit_dir.join("checkpoint"));
     dir.set_prefix("");

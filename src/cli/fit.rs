@@ -231,6 +231,7 @@ pub fn run(a: Args) -> Result<()> {
         noise,
         record_warnings,
         &a.chains,
+        None,
     )?;
     inputs::print_warnings(&report.warnings[n_record..]);
     if !a.chains.keep_checkpoint {
@@ -365,6 +366,7 @@ pub fn write_outputs(
     noise: Noise,
     record_warnings: Vec<Warning>,
     chains: &ChainArgs,
+    truth: Option<&[f64]>,
 ) -> Result<FitReport> {
     let data = fit.posterior.data();
     let mut chain_files = Vec::new();
@@ -455,6 +457,11 @@ pub fn write_outputs(
                 &measured,
                 &model,
                 band.as_ref().map(|(l, h)| (l.as_slice(), h.as_slice())),
+                Some(figures::ResidualScale {
+                    half: 0.0,
+                    sigma: report.sigma_hat,
+                    label: "±σ: residual RMS at the MAP",
+                }),
                 &format!("{spec}: MAP fit, e2 = {:.5}", fit.map.eval.e2),
             )
         };
@@ -466,15 +473,33 @@ pub fn write_outputs(
         ));
         if let Some(sample) = &fit.sample {
             let points = sample.points();
+            // Each parameter with its unit, as its component declares it.
+            let specs = fit.posterior.model().params();
+            let labels: Vec<String> = sample
+                .names
+                .iter()
+                .map(|n| match specs.iter().find(|p| &p.name == n) {
+                    Some(p) => format!("{n} ({})", p.unit),
+                    None => format!("{n} (-)"),
+                })
+                .collect();
             let corner = |tmp: &Path, n: usize| {
                 let stride = (points.len() / n).max(1);
                 let thin: Vec<Vec<f64>> = points.iter().step_by(stride).cloned().collect();
                 figures::corner_figure(
                     tmp,
-                    &sample.names,
+                    &labels,
                     &thin,
                     Some(&fit.map.theta),
-                    &format!("{spec}: posterior (red: MAP)"),
+                    truth,
+                    &format!(
+                        "{spec}: posterior (red: MAP{}; titles: median [90 % interval])",
+                        if truth.is_some() {
+                            ", black: truth"
+                        } else {
+                            ""
+                        }
+                    ),
                 )
             };
             out.write_with("corner.png", |tmp| corner(tmp, 3000))?;
@@ -482,18 +507,26 @@ pub fn write_outputs(
                 figures::svg_text(|tmp| corner(tmp, 400))?,
                 "Posterior: marginal histograms and pairwise draws (400 of them here; corner.png has 3,000); red: the MAP.".into(),
             ));
-            let c = &sample.chains[0];
-            let walkers: Vec<usize> = (0..c.walkers()).step_by((c.walkers() / 8).max(1)).collect();
+            // Three walkers of every ensemble, one colour per ensemble.
+            let picks: Vec<(usize, usize)> = sample
+                .chains
+                .iter()
+                .enumerate()
+                .flat_map(|(e, c)| {
+                    let step = (c.walkers() / 3).max(1);
+                    (0..c.walkers()).step_by(step).take(3).map(move |w| (e, w))
+                })
+                .collect();
+            let ensemble: Vec<usize> = picks.iter().map(|p| p.0).collect();
+            let steps = sample.steps();
             let traces = |every: usize| -> Vec<Vec<Vec<f64>>> {
-                (0..c.dim())
+                (0..sample.names.len())
                     .map(|k| {
-                        walkers
+                        picks
                             .iter()
-                            .map(|&w| {
-                                (0..c.steps())
-                                    .step_by(every)
-                                    .map(|s| c.get(s, w)[k])
-                                    .collect()
+                            .map(|&(e, w)| {
+                                let c = &sample.chains[e];
+                                (0..steps).step_by(every).map(|s| c.get(s, w)[k]).collect()
                             })
                             .collect()
                     })
@@ -504,15 +537,19 @@ pub fn write_outputs(
                     tmp,
                     &sample.names,
                     &traces(every),
+                    &ensemble,
                     sample.burn / every,
-                    &format!("{spec}: traces of ensemble 1 (black line: end of burn-in)"),
+                    &format!(
+                        "{spec}: traces, 3 walkers of each of the {} ensembles (one colour each; black line: end of burn-in)",
+                        sample.chains.len()
+                    ),
                 )
             };
             out.write_with("trace.png", |tmp| trace(tmp, 1))?;
-            let every = (c.steps() / 400).max(1);
+            let every = (steps / 400).max(1);
             svgs.push((
                 figures::svg_text(|tmp| trace(tmp, every))?,
-                format!("Traces of some walkers of ensemble 1 (every {every}-th step here); the black line ends the burn-in."),
+                format!("Traces of three walkers of every ensemble, one colour per ensemble (every {every}-th step here); the black line ends the burn-in."),
             ));
         }
     }

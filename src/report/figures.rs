@@ -85,6 +85,18 @@ struct Curve {
     label: String,
 }
 
+/// An axis label as plotters writes it, but never "-0" (a tick at a
+/// round-off below zero).
+fn tick(v: &f64) -> String {
+    use plotters::coord::ranged1d::ValueFormatter;
+    let s = <plotters::coord::types::RangedCoordf64 as ValueFormatter<f64>>::format(v);
+    if s.parse::<f64>() == Ok(0.0) {
+        s.trim_start_matches('-').to_string()
+    } else {
+        s
+    }
+}
+
 /// Range of the data with a 5 % margin; never empty.
 fn range(values: impl Iterator<Item = f64>) -> std::ops::Range<f64> {
     let (lo, hi) = values
@@ -121,6 +133,8 @@ fn panel<DB: DrawingBackend>(
         .map_err(|e| e.to_string())?;
     chart
         .configure_mesh()
+        .x_label_formatter(&tick)
+        .y_label_formatter(&tick)
         .x_desc(x_label)
         .y_desc(y_label)
         .label_style((FONT, 15))
@@ -272,15 +286,30 @@ pub fn release_test_figure(
     render!(path, &ext, size, draw(&samples, measured, title))
 }
 
+/// How the residual panel of [`fit_figure`] is scaled: at least
+/// `±half` (the same for every figure of a ladder, so that the error is
+/// seen to fall), with the noise floor `±sigma` drawn.
+#[derive(Debug, Clone, Copy)]
+pub struct ResidualScale {
+    /// Half the axis (m/s^2); 0 for the residual's own range.
+    pub half: f64,
+    /// The noise floor drawn as `±sigma` (m/s^2).
+    pub sigma: f64,
+    /// Its legend, e.g. `±σ: residual RMS at the MAP`.
+    pub label: &'static str,
+}
+
 /// Measured against model acceleration (top, with an optional band such as
-/// a 90 % posterior-predictive interval) and the residual (bottom). PNG or
-/// SVG by the extension of `path`.
+/// a 90 % posterior-predictive interval, drawn under the record) and the
+/// residual (bottom, with the noise floor if `scale` is given). PNG or SVG
+/// by the extension of `path`.
 pub fn fit_figure(
     path: &Path,
     t: &[f64],
     measured: &[f64],
     model: &[f64],
     band: Option<(&[f64], &[f64])>,
+    scale: Option<ResidualScale>,
     title: &str,
 ) -> Result<(), FigureError> {
     let ext = checked_extension(path)?;
@@ -289,10 +318,20 @@ pub fn fit_figure(
         .zip(measured.iter().zip(model))
         .map(|(&t, (m, a))| (t, m - a))
         .collect();
-    let mut top = vec![
+    let mut top = Vec::new();
+    if let Some((lo, hi)) = band {
+        for (edge, label) in [(lo, "90 % predictive band"), (hi, "")] {
+            top.push(Curve {
+                points: t.iter().copied().zip(edge.iter().copied()).collect(),
+                colour: RGBColor(120, 170, 220),
+                label: label.into(),
+            });
+        }
+    }
+    top.extend([
         Curve {
             points: t.iter().copied().zip(measured.iter().copied()).collect(),
-            colour: RGBColor(120, 120, 120),
+            colour: RGBColor(90, 90, 90),
             label: "measured".into(),
         },
         Curve {
@@ -300,21 +339,36 @@ pub fn fit_figure(
             colour: RGBColor(214, 39, 40),
             label: "model (MAP)".into(),
         },
-    ];
-    if let Some((lo, hi)) = band {
-        for (edge, label) in [(lo, "90 % predictive band"), (hi, "")] {
-            top.push(Curve {
-                points: t.iter().copied().zip(edge.iter().copied()).collect(),
-                colour: RGBColor(31, 119, 180),
+    ]);
+    let (t0, t1) = (
+        t.first().copied().unwrap_or(0.0),
+        t.last().copied().unwrap_or(1.0),
+    );
+    let mut bottom = Vec::new();
+    if let Some(sc) = scale {
+        // Invisible edges that set the shared scale.
+        for y in [-sc.half, sc.half] {
+            bottom.push(Curve {
+                points: vec![(t0, y), (t1, y)],
+                colour: WHITE,
+                label: String::new(),
+            });
+        }
+    }
+    bottom.push(Curve {
+        points: residual,
+        colour: RGBColor(44, 44, 160),
+        label: String::new(),
+    });
+    if let Some(sc) = scale {
+        for (y, label) in [(sc.sigma, sc.label), (-sc.sigma, "")] {
+            bottom.push(Curve {
+                points: vec![(t0, y), (t1, y)],
+                colour: RGBColor(230, 140, 0),
                 label: label.into(),
             });
         }
     }
-    let bottom = vec![Curve {
-        points: residual,
-        colour: RGBColor(44, 44, 160),
-        label: String::new(),
-    }];
     let size = (1600, 1000);
     render!(path, &ext, size, draw_fit(title, &top, &bottom))
 }
@@ -342,17 +396,44 @@ fn draw_fit<DB: DrawingBackend>(
 /// A corner plot: histograms of each parameter on the diagonal, pairwise
 /// scatter of the draws below it. `points` are draws (thin them to a few
 /// thousand); `marks` optional reference values (e.g. the MAP or a truth).
+///
+/// Each diagonal cell is titled with the parameter (name and unit as given
+/// in `names`), its median and 90 % interval; `truth` (when the record is
+/// synthetic) is drawn as black lines.
 pub fn corner_figure(
     path: &Path,
     names: &[String],
     points: &[Vec<f64>],
     marks: Option<&[f64]>,
+    truth: Option<&[f64]>,
     title: &str,
 ) -> Result<(), FigureError> {
     let ext = checked_extension(path)?;
     let d = names.len();
+    // A truth or mark for other parameters than drawn is not drawn.
+    let truth = truth.filter(|t| t.len() == d);
+    let marks = marks.filter(|m| m.len() == d);
     let size = ((260 * d as u32).max(600), (260 * d as u32).max(600));
-    render!(path, &ext, size, draw_corner(names, points, marks, title))
+    render!(
+        path,
+        &ext,
+        size,
+        draw_corner(names, points, marks, truth, title)
+    )
+}
+
+/// 4 significant digits, for figure titles.
+fn short(x: f64) -> String {
+    if x == 0.0 || !x.is_finite() {
+        return format!("{x}");
+    }
+    let mag = x.abs().log10().floor();
+    if !(-3.0..5.0).contains(&mag) {
+        format!("{x:.3e}")
+    } else {
+        let decimals = (3.0 - mag).max(0.0) as usize;
+        format!("{x:.decimals$}")
+    }
 }
 
 fn draw_corner<DB: DrawingBackend>(
@@ -360,6 +441,7 @@ fn draw_corner<DB: DrawingBackend>(
     names: &[String],
     points: &[Vec<f64>],
     marks: Option<&[f64]>,
+    truth: Option<&[f64]>,
     title: &str,
 ) -> Result<(), String> {
     let e = |x: DrawingAreaErrorKind<DB::ErrorType>| x.to_string();
@@ -367,8 +449,9 @@ fn draw_corner<DB: DrawingBackend>(
     let root = root.titled(title, (FONT, 26)).map_err(e)?;
     let d = names.len();
     let cells = root.split_evenly((d, d));
-    let ranges: Vec<std::ops::Range<f64>> =
-        (0..d).map(|k| range(points.iter().map(|p| p[k]))).collect();
+    let ranges: Vec<std::ops::Range<f64>> = (0..d)
+        .map(|k| range(points.iter().map(|p| p[k]).chain(truth.map(|t| t[k]))))
+        .collect();
     let blue = RGBColor(31, 119, 180);
     for i in 0..d {
         for j in 0..d {
@@ -386,7 +469,8 @@ fn draw_corner<DB: DrawingBackend>(
                     let b = (((p[i] - r.start) / w) as usize).min(bins - 1);
                     counts[b] += 1;
                 }
-                let top = counts.iter().copied().max().unwrap_or(1) as f64 * 1.1;
+                // Head room for the cell's title.
+                let top = counts.iter().copied().max().unwrap_or(1) as f64 * 1.4;
                 let mut chart = ChartBuilder::on(area)
                     .margin(4)
                     .x_label_area_size(if i == d - 1 { 30 } else { 5 })
@@ -396,6 +480,8 @@ fn draw_corner<DB: DrawingBackend>(
                 chart
                     .configure_mesh()
                     .disable_mesh()
+                    .x_label_formatter(&tick)
+                    .y_label_formatter(&tick)
                     .x_desc(x_label)
                     .x_labels(3)
                     .y_labels(0)
@@ -417,8 +503,24 @@ fn draw_corner<DB: DrawingBackend>(
                         )))
                         .map_err(e)?;
                 }
-                // Name each diagonal cell, since inner cells carry no axis titles.
-                area.draw_text(&names[i], &(FONT, 16).into_text_style(area), (8, 4))
+                if let Some(tr) = truth {
+                    chart
+                        .draw_series(std::iter::once(PathElement::new(
+                            [(tr[i], 0.0), (tr[i], top)],
+                            BLACK.stroke_width(2),
+                        )))
+                        .map_err(e)?;
+                }
+                // Name each diagonal cell, since inner cells carry no axis
+                // titles: the parameter, then its median and 90 % interval.
+                let mut v: Vec<f64> = points.iter().map(|p| p[i]).collect();
+                v.sort_by(f64::total_cmp);
+                let q = |p: f64| crate::inference::summary::quantile(&v, p);
+                area.draw_text(&names[i], &(FONT, 14).into_text_style(area), (6, 2))
+                    .map_err(e)?;
+                let interval =
+                    format!("{} [{}, {}]", short(q(0.5)), short(q(0.05)), short(q(0.95)));
+                area.draw_text(&interval, &(FONT, 12).into_text_style(area), (6, 19))
                     .map_err(e)?;
             } else {
                 let mut chart = ChartBuilder::on(area)
@@ -430,6 +532,8 @@ fn draw_corner<DB: DrawingBackend>(
                 chart
                     .configure_mesh()
                     .disable_mesh()
+                    .x_label_formatter(&tick)
+                    .y_label_formatter(&tick)
                     .x_desc(x_label)
                     .y_desc(if j == 0 { names[i].as_str() } else { "" })
                     .x_labels(3)
@@ -450,31 +554,48 @@ fn draw_corner<DB: DrawingBackend>(
                         .draw_series(std::iter::once(Circle::new((m[j], m[i]), 4, RED.filled())))
                         .map_err(e)?;
                 }
+                if let Some(tr) = truth {
+                    let (x, y) = (&ranges[j], &ranges[i]);
+                    chart
+                        .draw_series([
+                            PathElement::new([(tr[j], y.start), (tr[j], y.end)], BLACK.mix(0.7)),
+                            PathElement::new([(x.start, tr[i]), (x.end, tr[i])], BLACK.mix(0.7)),
+                        ])
+                        .map_err(e)?;
+                }
             }
         }
     }
     root.present().map_err(e)
 }
 
-/// Trace plots: each parameter against the step for some walkers of one
-/// ensemble, with the end of burn-in marked. `traces[k][w]` is walker `w`'s
-/// series of parameter `k`.
+/// Trace plots: each parameter against the step for some walkers of every
+/// ensemble, one colour per ensemble, with the end of burn-in marked.
+/// `traces[k][w]` is series `w` of parameter `k`, from ensemble
+/// `ensemble[w]`.
 pub fn trace_figure(
     path: &Path,
     names: &[String],
     traces: &[Vec<Vec<f64>>],
+    ensemble: &[usize],
     burn: usize,
     title: &str,
 ) -> Result<(), FigureError> {
     let ext = checked_extension(path)?;
     let size = (1400, (180 * names.len() as u32).max(500));
-    render!(path, &ext, size, draw_traces(names, traces, burn, title))
+    render!(
+        path,
+        &ext,
+        size,
+        draw_traces(names, traces, ensemble, burn, title)
+    )
 }
 
 fn draw_traces<DB: DrawingBackend>(
     root: DrawingArea<DB, Shift>,
     names: &[String],
     traces: &[Vec<Vec<f64>>],
+    ensemble: &[usize],
     burn: usize,
     title: &str,
 ) -> Result<(), String> {
@@ -494,6 +615,8 @@ fn draw_traces<DB: DrawingBackend>(
         chart
             .configure_mesh()
             .disable_mesh()
+            .x_label_formatter(&tick)
+            .y_label_formatter(&tick)
             .y_desc(names[k].as_str())
             .x_desc(if k == names.len() - 1 { "step" } else { "" })
             .x_labels(if k == names.len() - 1 { 8 } else { 0 })
@@ -503,7 +626,7 @@ fn draw_traces<DB: DrawingBackend>(
             .draw()
             .map_err(e)?;
         for (w, t) in traces[k].iter().enumerate() {
-            let colour = Palette99::pick(w).mix(0.6);
+            let colour = Palette99::pick(ensemble.get(w).copied().unwrap_or(0)).mix(0.6);
             chart
                 .draw_series(LineSeries::new(
                     t.iter().enumerate().map(|(s, v)| (s as f64, *v)),
@@ -564,6 +687,7 @@ fn draw_ladder<DB: DrawingBackend>(
             .configure_mesh()
             .x_labels(pts.len().max(1))
             .x_label_formatter(&|x| label(x.round() as usize))
+            .y_label_formatter(&tick)
             .y_desc(name)
             .label_style((FONT, 14))
             .axis_desc_style((FONT, 16))
@@ -617,8 +741,9 @@ fn draw_map<DB: DrawingBackend>(
         .max(1e-12);
     let (u0, u1) = (ue[0], ue[ue.len() - 1]);
     let (v0, v1) = (ve[0], ve[ve.len() - 1]);
-    let mut chart = ChartBuilder::on(&root)
-        .caption(format!("{title} (colour: ±{scale:.2e} N/kg)"), (FONT, 22))
+    let root = root.titled(title, (FONT, 22)).map_err(e)?;
+    let (main, bar) = root.split_horizontally(root.dim_in_pixel().0 * 85 / 100);
+    let mut chart = ChartBuilder::on(&main)
         .margin(20)
         .x_label_area_size(45)
         .y_label_area_size(70)
@@ -627,6 +752,8 @@ fn draw_map<DB: DrawingBackend>(
     chart
         .configure_mesh()
         .disable_mesh()
+        .x_label_formatter(&tick)
+        .y_label_formatter(&tick)
         .x_desc("u (m)")
         .y_desc("v (m/s)")
         .label_style((FONT, 14))
@@ -655,6 +782,30 @@ fn draw_map<DB: DrawingBackend>(
                 .map_err(e)?;
         }
     }
+    // The colour bar: the residual force each colour stands for.
+    let mut cb = ChartBuilder::on(&bar)
+        .margin_top(20)
+        .margin_bottom(65)
+        .margin_right(10)
+        .y_label_area_size(75)
+        .build_cartesian_2d(0.0..1.0, -scale..scale)
+        .map_err(e)?;
+    cb.configure_mesh()
+        .disable_mesh()
+        .disable_x_axis()
+        .y_label_formatter(&|v| format!("{v:.1e}"))
+        .y_desc("residual force (N/kg)")
+        .label_style((FONT, 13))
+        .axis_desc_style((FONT, 15))
+        .draw()
+        .map_err(e)?;
+    let levels = 64;
+    cb.draw_series((0..levels).map(|k| {
+        let lo = -scale + 2.0 * scale * k as f64 / levels as f64;
+        let hi = lo + 2.0 * scale / levels as f64;
+        Rectangle::new([(0.0, lo), (1.0, hi)], colour(0.5 * (lo + hi)).filled())
+    }))
+    .map_err(e)?;
     root.present().map_err(e)
 }
 
@@ -727,5 +878,22 @@ mod tests {
             release_test_figure(&dir.path().join("f.jpg"), &r, 0.005, None, ""),
             Err(FigureError::Format { .. })
         ));
+    }
+}
+
+#[cfg(test)]
+mod tick_tests {
+    #[test]
+    fn a_tick_at_a_round_off_below_zero_reads_0() {
+        for v in [-1e-17, -0.0, -2.5e-9] {
+            let t = super::tick(&v);
+            assert!(
+                !t.starts_with("-0") || t.parse::<f64>().unwrap() != 0.0,
+                "{v}: {t}"
+            );
+        }
+        assert_eq!(super::tick(&-0.0), "0.0");
+        assert_eq!(super::tick(&-0.25), "-0.25");
+        eprintln!("{} {}", super::tick(&-1e-17), super::tick(&-2.5e-9));
     }
 }
