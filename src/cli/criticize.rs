@@ -399,6 +399,13 @@ pub fn write_ladder(
     };
     let text = serde_json::to_string_pretty(&report)? + "\n";
     out.write("ladder.json", text.as_bytes())?;
+    // The record's own noise level, whatever the models: what the error
+    // can fall to (white noise assumed; coloured noise lies above it).
+    let times: Vec<f64> = (0..data.a.len()).map(|i| data.time(i)).collect();
+    let sigma_floor =
+        hbis::data::Record::new(times, data.a.clone()).map_or(f64::NAN, |r| r.noise_level());
+    #[cfg(feature = "figures")]
+    let e2_floor = data.a.len() as f64 * sigma_floor * sigma_floor / data.energy();
     let mut svgs = Vec::new();
     #[cfg(feature = "figures")]
     {
@@ -412,8 +419,9 @@ pub fn write_ladder(
             .collect();
         let e2: Vec<f64> = steps.iter().map(|s| s.e2).collect();
         let z: Vec<f64> = steps.iter().map(|s| s.log_evidence).collect();
-        let draw =
-            |tmp: &std::path::Path| hbis::report::figures::ladder_figure(tmp, &labels, &e2, &z);
+        let draw = |tmp: &std::path::Path| {
+            hbis::report::figures::ladder_figure(tmp, &labels, &e2, &z, Some(e2_floor))
+        };
         out.write_with("ladder.png", draw)?;
         svgs.push((
             hbis::report::figures::svg_text(draw)?,
@@ -435,9 +443,7 @@ pub fn write_ladder(
         }
         models.push((model, at_lag));
     }
-    let floor = steps.last().map_or(0.0, |s| {
-        (s.fit.e2 * data.energy() / data.a.len().max(1) as f64).sqrt()
-    });
+    let floor = sigma_floor;
     for (k, (s, (model, at_lag))) in steps.iter().zip(models).enumerate() {
         let title = match &s.added {
             Some(effect) => format!("step {k}: {} (added {effect})", s.model),
@@ -494,7 +500,7 @@ fn residual_figure(
             Some((half, floor)) => hbis::report::figures::ResidualScale {
                 half,
                 sigma: floor,
-                label: "±σ of the last step (noise floor estimate)",
+                label: "±σ: noise floor (white noise, from second differences)",
             },
             None => hbis::report::figures::ResidualScale {
                 half: 0.0,

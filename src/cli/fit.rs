@@ -366,7 +366,7 @@ pub fn write_outputs(
     noise: Noise,
     record_warnings: Vec<Warning>,
     chains: &ChainArgs,
-    truth: Option<&[f64]>,
+    #[cfg_attr(not(feature = "figures"), allow(unused_variables))] truth: Option<&[f64]>,
 ) -> Result<FitReport> {
     let data = fit.posterior.data();
     let mut chain_files = Vec::new();

@@ -644,16 +644,24 @@ fn draw_traces<DB: DrawingBackend>(
     root.present().map_err(e)
 }
 
-/// The ladder: `e2` and the log-evidence at each step.
+/// The ladder: `e2` and the log-evidence at each step, each step labelled
+/// by `models` (e.g. the effect it added), and the record's noise floor in
+/// `e2` (`floor`) as a dashed line when given.
 pub fn ladder_figure(
     path: &Path,
     models: &[String],
     e2: &[f64],
     log_evidence: &[f64],
+    floor: Option<f64>,
 ) -> Result<(), FigureError> {
     let ext = checked_extension(path)?;
     let size = (1400, 800);
-    render!(path, &ext, size, draw_ladder(models, e2, log_evidence))
+    render!(
+        path,
+        &ext,
+        size,
+        draw_ladder(models, e2, log_evidence, floor)
+    )
 }
 
 fn draw_ladder<DB: DrawingBackend>(
@@ -661,6 +669,7 @@ fn draw_ladder<DB: DrawingBackend>(
     models: &[String],
     e2: &[f64],
     log_evidence: &[f64],
+    floor: Option<f64>,
 ) -> Result<(), String> {
     let e = |x: DrawingAreaErrorKind<DB::ErrorType>| x.to_string();
     root.fill(&WHITE).map_err(e)?;
@@ -676,7 +685,8 @@ fn draw_ladder<DB: DrawingBackend>(
         .collect();
     let label = |k: usize| models.get(k).cloned().unwrap_or_default();
     for (area, pts, name) in [(&a, &steps, "e2"), (&b, &z, "log-evidence")] {
-        let ys = range(pts.iter().map(|p| p.1));
+        let floor = floor.filter(|f| f.is_finite() && name == "e2");
+        let ys = range(pts.iter().map(|p| p.1).chain(floor));
         let mut chart = ChartBuilder::on(area)
             .margin(20)
             .x_label_area_size(40)
@@ -705,6 +715,30 @@ fn draw_ladder<DB: DrawingBackend>(
                     .map(|p| Circle::new(*p, 6, RGBColor(214, 39, 40).filled())),
             )
             .map_err(e)?;
+        if let Some(f) = floor {
+            let x1 = (pts.len() as f64 - 0.7).max(0.3);
+            let orange = RGBColor(230, 140, 0);
+            chart
+                .draw_series(DashedLineSeries::new(
+                    [(-0.3, f), (x1, f)],
+                    10,
+                    6,
+                    orange.stroke_width(2),
+                ))
+                .map_err(e)?
+                .label("noise floor (white noise, from second differences)")
+                .legend(move |(x, y)| {
+                    PathElement::new([(x, y), (x + 20, y)], orange.stroke_width(2))
+                });
+            chart
+                .configure_series_labels()
+                .label_font((FONT, 14))
+                .background_style(WHITE.mix(0.8))
+                .border_style(BLACK)
+                .position(SeriesLabelPosition::UpperRight)
+                .draw()
+                .map_err(e)?;
+        }
     }
     root.present().map_err(e)
 }
