@@ -508,14 +508,20 @@ fn residual_figure(
                 label: "±σ: residual RMS",
             },
         };
+        let phases = hbis::study::segments(model, fit.model_theta(model), data)
+            .ok()
+            .map(|s| s.phase);
         let draw = |tmp: &std::path::Path| {
             hbis::report::figures::fit_figure(
                 tmp,
                 &t,
                 &measured,
                 &accel,
-                None,
-                Some(scale),
+                &hbis::report::figures::Overlays {
+                    band: None,
+                    scale: Some(scale),
+                    phases: phases.as_deref(),
+                },
                 &format!("{title}: e2 = {:.5}", fit.e2),
             )
         };

@@ -450,18 +450,29 @@ pub fn write_outputs(
     #[cfg(feature = "figures")]
     {
         use hbis::report::figures;
+        // The phases of the MAP motion, shaded behind the record.
+        let phases = hbis::study::segments(
+            fit.posterior.model(),
+            fit.posterior.model_part(&fit.map.theta),
+            data,
+        )
+        .ok()
+        .map(|s| s.phase);
         let fit_fig = |tmp: &Path| {
             figures::fit_figure(
                 tmp,
                 &t,
                 &measured,
                 &model,
-                band.as_ref().map(|(l, h)| (l.as_slice(), h.as_slice())),
-                Some(figures::ResidualScale {
-                    half: 0.0,
-                    sigma: report.sigma_hat,
-                    label: "±σ: residual RMS at the MAP",
-                }),
+                &figures::Overlays {
+                    band: band.as_ref().map(|(l, h)| (l.as_slice(), h.as_slice())),
+                    scale: Some(figures::ResidualScale {
+                        half: 0.0,
+                        sigma: report.sigma_hat,
+                        label: "±σ: residual RMS at the MAP",
+                    }),
+                    phases: phases.as_deref(),
+                },
                 &format!("{spec}: MAP fit, e2 = {:.5}", fit.map.eval.e2),
             )
         };

@@ -122,6 +122,21 @@ fn panel<DB: DrawingBackend>(
     y_label: &str,
     curves: &[Curve],
 ) -> Result<(), String> {
+    shaded_panel(area, caption, x_label, y_label, curves, &[])
+}
+
+/// A time span `[t0, t1)` shaded in a colour behind a panel's curves.
+type Shade = (f64, f64, RGBColor);
+
+/// [`panel`] over `shade`d time spans.
+fn shaded_panel<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    caption: &str,
+    x_label: &str,
+    y_label: &str,
+    curves: &[Curve],
+    shade: &[Shade],
+) -> Result<(), String> {
     let xs = range(curves.iter().flat_map(|c| c.points.iter().map(|p| p.0)));
     let ys = range(curves.iter().flat_map(|c| c.points.iter().map(|p| p.1)));
     let mut chart = ChartBuilder::on(area)
@@ -129,7 +144,7 @@ fn panel<DB: DrawingBackend>(
         .margin(12)
         .x_label_area_size(40)
         .y_label_area_size(70)
-        .build_cartesian_2d(xs, ys)
+        .build_cartesian_2d(xs, ys.clone())
         .map_err(|e| e.to_string())?;
     chart
         .configure_mesh()
@@ -141,6 +156,11 @@ fn panel<DB: DrawingBackend>(
         .axis_desc_style((FONT, 16))
         .light_line_style(WHITE.mix(0.0))
         .draw()
+        .map_err(|e| e.to_string())?;
+    chart
+        .draw_series(shade.iter().map(|&(t0, t1, colour)| {
+            Rectangle::new([(t0, ys.start), (t1, ys.end)], colour.mix(0.13).filled())
+        }))
         .map_err(|e| e.to_string())?;
     let mut labelled = false;
     for c in curves {
@@ -299,6 +319,20 @@ pub struct ResidualScale {
     pub label: &'static str,
 }
 
+/// What [`fit_figure`] draws beside the record, the model and the
+/// residual.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Overlays<'a> {
+    /// A band around the model, e.g. the 90 % posterior-predictive
+    /// interval: `(lower, upper)`, one value per sample.
+    pub band: Option<(&'a [f64], &'a [f64])>,
+    /// The residual panel's scale and noise floor.
+    pub scale: Option<ResidualScale>,
+    /// The phase of the model's motion at each sample (`elastic`,
+    /// `plastic1`, ...), shaded behind the acceleration.
+    pub phases: Option<&'a [String]>,
+}
+
 /// Measured against model acceleration (top, with an optional band such as
 /// a 90 % posterior-predictive interval, drawn under the record) and the
 /// residual (bottom, with the noise floor if `scale` is given). PNG or SVG
@@ -308,11 +342,16 @@ pub fn fit_figure(
     t: &[f64],
     measured: &[f64],
     model: &[f64],
-    band: Option<(&[f64], &[f64])>,
-    scale: Option<ResidualScale>,
+    overlays: &Overlays,
     title: &str,
 ) -> Result<(), FigureError> {
     let ext = checked_extension(path)?;
+    let Overlays {
+        band,
+        scale,
+        phases,
+    } = *overlays;
+    let shade = phases.map_or_else(Vec::new, |p| phase_spans(t, p));
     let residual: Vec<(f64, f64)> = t
         .iter()
         .zip(measured.iter().zip(model))
@@ -370,7 +409,34 @@ pub fn fit_figure(
         }
     }
     let size = (1600, 1000);
-    render!(path, &ext, size, draw_fit(title, &top, &bottom))
+    render!(path, &ext, size, draw_fit(title, &top, &bottom, &shade))
+}
+
+/// Runs of one phase along `t` as shaded spans, coloured as panel (b) of
+/// the release-test figure colours the phases.
+fn phase_spans(t: &[f64], phases: &[String]) -> Vec<Shade> {
+    let kind = |p: &str| match p {
+        "elastic" => Some(PhaseKind::Elastic),
+        "plastic1" => Some(PhaseKind::Plastic1),
+        "plastic2" => Some(PhaseKind::Plastic2),
+        "plastic3" => Some(PhaseKind::Plastic3),
+        "rest" => Some(PhaseKind::Rest),
+        _ => None,
+    };
+    let n = t.len().min(phases.len());
+    let dt = if n > 1 { t[1] - t[0] } else { 0.0 };
+    let mut spans = Vec::new();
+    let mut start = 0;
+    for i in 1..=n {
+        if i == n || phases[i] != phases[start] {
+            if let Some(k) = kind(&phases[start]) {
+                let end = if i < n { t[i] } else { t[n - 1] + dt };
+                spans.push((t[start], end, phase_colour(k)));
+            }
+            start = i;
+        }
+    }
+    spans
 }
 
 fn draw_fit<DB: DrawingBackend>(
@@ -378,11 +444,17 @@ fn draw_fit<DB: DrawingBackend>(
     title: &str,
     top: &[Curve],
     bottom: &[Curve],
+    shade: &[Shade],
 ) -> Result<(), String> {
     root.fill(&WHITE).map_err(|e| e.to_string())?;
     let root = root.titled(title, (FONT, 28)).map_err(|e| e.to_string())?;
     let (a, b) = root.split_vertically(root.dim_in_pixel().1 * 3 / 5);
-    panel(&a, "(a) acceleration", "t (s)", "a (m/s²)", top)?;
+    let caption = if shade.is_empty() {
+        "(a) acceleration"
+    } else {
+        "(a) acceleration; shading: phase of the model's motion (blue elastic, orange plastic1, green plastic2, red plastic3, grey rest)"
+    };
+    shaded_panel(&a, caption, "t (s)", "a (m/s²)", top, shade)?;
     panel(
         &b,
         "(b) residual, measured - model",
