@@ -1,6 +1,7 @@
 //! Measured records: reading, validation, alignment to the release, sanity
 //! warnings, and synthetic records for tests and studies.
 
+pub mod ground_motion;
 pub mod record;
 pub mod synthetic;
 pub mod validation;
