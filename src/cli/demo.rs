@@ -117,7 +117,7 @@ fn criticize(out: &mut impl Write, dir: &mut OutDir) -> Result<()> {
     dir.set_prefix("");
     writeln!(
         out,
-        "wrote {} and step-<k>.png, ladder.png beside it (same as: hbis ladder --data {} --model bilinear+coulomb --seed {SEED} --out {})",
+        "wrote {} and step-<k>.png, ladder.png, report.html beside it (same as: hbis ladder --data {} --model bilinear+coulomb --seed {SEED} --out {})",
         ladder_dir.join("ladder.json").display(),
         path.display(),
         ladder_dir.display()
@@ -218,7 +218,7 @@ fn identify(out: &mut impl Write, dir: &mut OutDir) -> Result<()> {
     dir.set_prefix("");
     writeln!(
         out,
-        "wrote {} and the chains, fit.png, corner.png, trace.png beside it (same as: hbis fit --data {} --seed {SEED} \
+        "wrote {} and the chains, fit.png, corner.png, trace.png, report.html beside it (same as: hbis fit --data {} --seed {SEED} \
          --released-force {RELEASED_FORCE_TEST3} --static-friction {STATIC_FRICTION} --out {})",
         fit_dir.join("fit.json").display(),
         record_path.display(),
