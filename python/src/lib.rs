@@ -193,10 +193,10 @@ fn synthesize<'py>(
 
 /// A record checked as the binary checks a file, then aligned at the
 /// release (detected, or `t0` in the record's clock).
-fn aligned(t: &[f64], a: &[f64], t0: Option<f64>) -> PyResult<(Record, Aligned)> {
-    let r = Record::new(t.to_vec(), a.to_vec()).map_err(err)?;
-    let data = r.aligned(t0).map_err(err)?;
-    Ok((r, data))
+fn aligned(t: &[f64], a: &[f64], t0: Option<f64>) -> PyResult<Aligned> {
+    Record::new(t.to_vec(), a.to_vec())
+        .and_then(|r| r.aligned(t0))
+        .map_err(err)
 }
 
 /// Reads a record file as the binary does (CSV with columns `t`, `a`, or
@@ -238,7 +238,7 @@ fn align<'py>(
     f64,
     String,
 )> {
-    let (_, d) = aligned(t.as_slice()?, a.as_slice()?, t0)?;
+    let d = aligned(t.as_slice()?, a.as_slice()?, t0)?;
     let times: Vec<f64> = (0..d.a.len()).map(|i| d.time(i)).collect();
     Ok((
         times.into_pyarray(py),
@@ -296,7 +296,7 @@ fn kept_arrays(
     forces: Option<(f64, f64)>,
 ) -> PyResult<Arrays> {
     let sample = fit.sample.as_ref().expect("a sampled fit");
-    let steps: Vec<usize> = (sample.burn..sample.steps()).step_by(thin.max(1)).collect();
+    let steps: Vec<usize> = hbis::report::cmdstan::kept_steps(sample, thin).collect();
     let chains = sample.chains.len();
     let walkers = sample.chains.first().map_or(0, |c| c.walkers());
     let dim = sample.names.len();
@@ -361,7 +361,7 @@ fn fit(
 ) -> PyResult<FitResult> {
     let m = parse_model(model)?;
     let noise_model = parse_noise(noise)?;
-    let (_, data) = aligned(t.as_slice()?, a.as_slice()?, t0)?;
+    let data = aligned(t.as_slice()?, a.as_slice()?, t0)?;
     if thin == Some(0) {
         return Err(value_error(
             "thin = 0: expected a whole number of steps >= 1 (1 keeps every step)",
@@ -475,7 +475,7 @@ fn criticism_inputs(
             value_error(format!("noise `{n}`: expected `white`, `ar1` or `auto`"))
         })?),
     };
-    let (_, data) = aligned(t, a, t0)?;
+    let data = aligned(t, a, t0)?;
     let data = place_release(&m, data, &MapSettings::default(), seed ^ 0x7E1E_A5E0).map_err(err)?;
     Ok(match asked {
         Some(n) => (m, data, n, None),

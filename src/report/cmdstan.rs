@@ -54,7 +54,7 @@ pub fn auto_thin(sample: &PosteriorSample) -> usize {
 }
 
 /// The steps written: every `thin`-th after the burn-in.
-fn kept_steps(sample: &PosteriorSample, thin: usize) -> impl Iterator<Item = usize> + Clone {
+pub fn kept_steps(sample: &PosteriorSample, thin: usize) -> impl Iterator<Item = usize> + Clone {
     (sample.burn..sample.steps()).step_by(thin.max(1))
 }
 
