@@ -71,6 +71,23 @@ impl Friction {
         (m * self.k_f * dir * sign_u, m * self.f_f0 * dir)
     }
 
+    /// Where a falling amplitude `F_F0 + k_F |u|` (`k_F < 0`) reaches zero,
+    /// `|u| = -F_F0 / k_F`; beyond it the law would push the mass along its
+    /// motion. `None` when the amplitude never falls to zero.
+    pub fn zero_amplitude_at(&self) -> Option<f64> {
+        (self.k_f < 0.0 && self.f_f0 >= 0.0).then(|| -self.f_f0 / self.k_f)
+    }
+
+    /// Slope `k_F` of the amplitude per unit mass (1/s^2).
+    pub fn slope(&self) -> f64 {
+        self.k_f
+    }
+
+    /// `|a_F|`, the largest direction factor's excess over 1.
+    pub fn asymmetry(&self) -> f64 {
+        self.asym.abs()
+    }
+
     /// Whether the amplitude depends on `u` (so phases split at `u = 0`).
     pub fn has_slope(&self) -> bool {
         self.k_f != 0.0

@@ -19,6 +19,7 @@ pub mod catalog;
 pub mod component;
 pub mod composed;
 pub mod error;
+pub mod forced;
 pub mod friction;
 pub mod layout;
 pub mod numeric;

@@ -39,6 +39,7 @@
 
 use super::component::{ForceComponent, Forces, Kinematics};
 use super::error::SimError;
+use super::forced::{Excitation, ForcedSink, Peaks};
 use super::simulate::{PhaseKind, System};
 use super::spring::{Spring, SpringBranch};
 use crate::numeric::ode::{Dopri5, Stop};
@@ -51,13 +52,19 @@ const MAX_KINKS: usize = 13;
 pub struct NumericSystem<'a> {
     system: System,
     terms: &'a [(&'a dyn ForceComponent, &'a [f64])],
+    /// Friction amplitude floored at zero (as under shaking).
+    floored: bool,
 }
 
 impl<'a> NumericSystem<'a> {
     /// `system` (piecewise-linear components already configured) with the
     /// components `terms` and their parameter values.
     pub fn with_terms(system: System, terms: &'a [(&'a dyn ForceComponent, &'a [f64])]) -> Self {
-        Self { system, terms }
+        Self {
+            system,
+            terms,
+            floored: false,
+        }
     }
 
     /// The forces on spring branch `b` at state `k`.
@@ -65,7 +72,11 @@ impl<'a> NumericSystem<'a> {
         let s = &self.system;
         let mut f = Forces {
             spring: s.spring().force(b, k.u),
-            friction: s.friction().force(k.u, k.dir),
+            friction: if self.floored {
+                k.dir * s.friction().capacity(k.u, k.dir).max(0.0)
+            } else {
+                s.friction().force(k.u, k.dir)
+            },
             damper: s.damper_rate() * k.v,
             extra: 0.0,
         };
@@ -323,4 +334,211 @@ fn phase_of(sp: &Spring, b: SpringBranch) -> PhaseKind {
         2 => PhaseKind::Plastic2,
         _ => PhaseKind::Plastic3,
     }
+}
+
+impl NumericSystem<'_> {
+    /// The response to the ground acceleration `ex` from rest (virgin
+    /// spring, `u = 0`), integrated numerically: each sliding stretch by
+    /// Dormand-Prince at tolerance `rtol` (absolute `1e-3 rtol` m) between
+    /// the samples of `ag` (where its slope changes), stops and branch
+    /// changes located on the dense output; sticking and breakaway as in
+    /// the closed form (the drive is linear in time while stuck). The
+    /// friction amplitude is floored at zero.
+    pub fn forced<S: ForcedSink>(
+        &self,
+        ex: &Excitation,
+        rtol: f64,
+        sink: &mut S,
+    ) -> Result<Peaks, SimError> {
+        let me = NumericSystem {
+            floored: true,
+            ..self.clone()
+        };
+        me.forced_run(ex, rtol, sink)
+    }
+
+    fn forced_run<S: ForcedSink>(
+        &self,
+        ex: &Excitation,
+        rtol: f64,
+        sink: &mut S,
+    ) -> Result<Peaks, SimError> {
+        let mut kinks = Vec::new();
+        for (c, theta) in self.terms {
+            c.kinks(theta, &mut kinks);
+        }
+        if let Some(uz) = self.system.friction().zero_amplitude_at() {
+            kinks.extend([uz, -uz]);
+        }
+        kinks.retain(|x| x.is_finite());
+        kinks.truncate(MAX_KINKS);
+        let sp = self.system.spring();
+        let has_slope = self.system.friction().has_slope();
+        let ode = Dopri5::new()
+            .with_rtol(rtol)
+            .and_then(|o| o.with_atol(1e-3 * rtol))
+            .map_err(|_| SimError::Grid {
+                name: "rtol",
+                value: rtol,
+                requirement: "must be in (0, 0.1)",
+            })?;
+        let dt = ex.dt();
+        let (mut u, mut v, mut s) = (0.0, 0.0, 0.0);
+        let mut branch = SpringBranch::Elastic { u_i: 0.0, f_i: 0.0 };
+        let mut dir: Option<f64> = None;
+        let mut peaks = ForcedPeaks::default();
+        let kin = |u, v, dir, travel| Kinematics { u, v, dir, travel };
+        // The total acceleration u'' + ag is the forces' (u'' = accel - ag).
+        let note = |peaks: &mut ForcedPeaks, f: &Forces, u: f64, _ag: f64| {
+            let shear = f.spring + f.friction + f.damper + f.extra;
+            peaks.note(u, shear, f.accel());
+        };
+        peaks.note(0.0, ex.at(0), ex.at(0));
+        sink.sample(0, 0.0, 0.0, ex.at(0));
+        let mut events = 0usize;
+        for k in 0..ex.len() - 1 {
+            let t_k = k as f64 * dt;
+            let (ak, slope) = (ex.at(k), (ex.at(k + 1) - ex.at(k)) / dt);
+            let ag = |t: f64| ak + slope * (t - t_k);
+            let t_next = t_k + dt;
+            let mut t = t_k;
+            while t < t_next {
+                events += 1;
+                if events > 1_000_000 {
+                    return Err(SimError::PhaseCap { cap: 1_000_000, t });
+                }
+                let Some(d) = dir else {
+                    // Stuck: the drive F_S + extra + ag is linear in time.
+                    let f = self.forces(branch, &kin(u, 0.0, 1.0, s));
+                    let base = f.spring + f.extra;
+                    let cap = |dd: f64| self.forces(branch, &kin(u, 0.0, dd, s)).friction.abs();
+                    let (hi, lo) = (cap(-1.0), -cap(1.0));
+                    let (d0, d1) = (base + ag(t), base + ag(t_next));
+                    let (tau, nd) = if d0 > hi {
+                        (0.0, -1.0)
+                    } else if d0 < lo {
+                        (0.0, 1.0)
+                    } else if d1 > hi {
+                        ((hi - d0) / slope, -1.0)
+                    } else if d1 < lo {
+                        ((lo - d0) / slope, 1.0)
+                    } else {
+                        break;
+                    };
+                    t = (t + tau.max(0.0)).min(t_next);
+                    dir = Some(nd);
+                    continue;
+                };
+                let target = sp.next_event(branch, d);
+                if let Some((x, nb)) = target.filter(|(x, _)| d * (x - u) <= 0.0) {
+                    // Already there (sliding on after a pause on the
+                    // envelope): an event function that starts behind its
+                    // zero would never fire.
+                    u = x;
+                    branch = nb;
+                    continue;
+                }
+                let b = branch;
+                let (u_s, s_s) = (u, s);
+                let state = |y: &[f64; 2]| kin(y[0], y[1], d, s_s + d * (y[0] - u_s));
+                let rhs = |tt: f64, y: &[f64; 2]| [y[1], self.forces(b, &state(y)).accel() - ag(tt)];
+                let events_fn = |_: f64, y: &[f64; 2], g: &mut [f64]| {
+                    g[0] = d * y[1];
+                    g[1] = target.map_or(1.0, |(x, _)| d * (x - y[0]));
+                    g[2] = if has_slope { y[0] } else { 1.0 };
+                    for (gk, x) in g[3..].iter_mut().zip(&kinks) {
+                        *gk = y[0] - x;
+                    }
+                };
+                let v_start = if v * d < 0.0 { 0.0 } else { v };
+                let out = ode
+                    .solve(rhs, t, [u, v_start], t_next, 3 + kinks.len(), events_fn, |_| {})
+                    .map_err(|_| SimError::Diverged { t, u })?;
+                if out.stop != Stop::End {
+                    // Peaks at the events, as the closed form takes them.
+                    note(&mut peaks, &self.forces(b, &state(&out.y)), out.y[0], ag(out.t));
+                }
+                t = out.t;
+                [u, v] = out.y;
+                s = s_s + d * (u - u_s);
+                if !(u.is_finite() && v.is_finite()) || u.abs() > 1e3 {
+                    return Err(SimError::Diverged { t, u });
+                }
+                match out.stop {
+                    Stop::End => t = t_next,
+                    Stop::Event { index: 0 } => {
+                        v = 0.0;
+                        let unloaded = sp.unload(branch, u);
+                        let f = self.forces(unloaded, &kin(u, 0.0, d, s));
+                        note(&mut peaks, &f, u, ag(t));
+                        let drive = f.spring + f.extra + ag(t);
+                        let nd = -drive.signum();
+                        let cap = self.forces(unloaded, &kin(u, 0.0, nd, s)).friction.abs();
+                        if drive != 0.0 && drive.abs() > cap {
+                            if nd != d {
+                                branch = unloaded;
+                            }
+                            dir = Some(nd);
+                        } else {
+                            branch = unloaded;
+                            dir = None;
+                        }
+                    }
+                    Stop::Event { index: 1 } => {
+                        if let Some((x, nb)) = target {
+                            u = x;
+                            branch = nb;
+                            peaks.deepest = peaks.deepest.max(sp.line(nb).2);
+                        }
+                    }
+                    Stop::Event { .. } => {}
+                }
+                if self.floored_at(u, d) {
+                    peaks.floored = true;
+                }
+            }
+            let ag1 = ex.at(k + 1);
+            let (total, shear) = match dir {
+                None => (ag1, -ag1),
+                Some(d) => {
+                    let f = self.forces(branch, &kin(u, v, d, s));
+                    (f.accel(), f.spring + f.friction + f.damper + f.extra)
+                }
+            };
+            peaks.note(u, shear, total);
+            sink.sample(k + 1, u, v, total);
+        }
+        Ok(Peaks {
+            peak_displacement: peaks.u,
+            residual_displacement: u.abs(),
+            peak_base_shear: peaks.shear,
+            peak_total_acceleration: peaks.total,
+            deepest_branch: peaks.deepest,
+            friction_floored: peaks.floored,
+        })
+    }
+
+    fn floored_at(&self, u: f64, d: f64) -> bool {
+        let fr = self.system.friction();
+        fr.zero_amplitude_at().is_some() && fr.capacity(u, d) < 0.0
+    }
+}
+
+/// Running peaks of the numerical forced response.
+#[derive(Debug, Default)]
+struct ForcedPeaks {
+    u: f64,
+    shear: f64,
+    total: f64,
+    deepest: u8,
+    floored: bool,
+}
+
+impl ForcedPeaks {
+    fn note(&mut self, u: f64, shear: f64, total: f64) {
+        self.u = self.u.max(u.abs());
+        self.shear = self.shear.max(shear.abs());
+        self.total = self.total.max(total.abs());
+    }
+
 }

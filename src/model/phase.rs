@@ -257,6 +257,62 @@ impl LinearPhase {
         sum
     }
 
+    /// `G(t) = integral_0^t E(r) dr`, the displacement from rest under a unit
+    /// force that grows linearly in time (`C = t`); `b` is the basis at `t`.
+    /// A ground acceleration linear between its samples adds `-s G(t)` to
+    /// the displacement of a phase (`s` its slope), `-s E(t)` to the
+    /// velocity.
+    ///
+    /// # Formula
+    ///
+    /// From `E' + 2 alpha E + K G = t`: `G = (t - 2 alpha E - e^(-alpha t) s(t)) / K`,
+    /// used where `|K| t^2 >= 1`; elsewhere the Taylor series of `E`
+    /// integrated term by term, or (strongly damped) a divided difference
+    /// of `(e^(l t) - 1 - l t) / l^2` over the two real rates.
+    ///
+    /// ```
+    /// use hbis::model::phase::LinearPhase;
+    /// // Free mass (alpha = K = 0): E = t^2/2, G = t^3/6.
+    /// let p = LinearPhase::new(0.0, 0.0, 0.0);
+    /// let t = 0.3;
+    /// assert!((p.ramp(t, &p.basis(t)) - t * t * t / 6.0).abs() < 1e-16);
+    /// ```
+    pub fn ramp(&self, t: f64, b: &Basis) -> f64 {
+        let (a, k) = (self.alpha, self.k);
+        if k.abs() * t * t >= 1.0 {
+            return (t - 2.0 * a * b.e - b.es) * self.inv_k;
+        }
+        if a * t > 2.0 {
+            // |K| t^2 < 1 < (alpha t)^2: two real rates.
+            let g = (a * a - k).sqrt();
+            let l1 = -k / (a + g);
+            let l2 = -(a + g);
+            let h2 = |l: f64| t * t * phi2(l * t);
+            return (h2(l1) - h2(l2)) / (2.0 * g);
+        }
+        // Series of E (e_2 = 1/2, e_n from E'' + 2aE' + KE = 1), integrated.
+        let (mut e2, mut e1) = (0.5, 0.0);
+        let mut tn = t * t * t;
+        let mut sum = tn / 6.0;
+        let mut last_small = false;
+        for n in 3..80 {
+            let nf = n as f64;
+            let en = -(2.0 * a * (nf - 1.0) * e2 + k * e1) / (nf * (nf - 1.0));
+            tn *= t;
+            let term = en * tn / (nf + 1.0);
+            sum += term;
+            // Two small terms in a row: without damping every other one is 0.
+            let small = term.abs() <= 1e-18 * sum.abs();
+            if small && last_small && n > 6 {
+                break;
+            }
+            last_small = small;
+            e1 = e2;
+            e2 = en;
+        }
+        sum
+    }
+
     /// Displacement and velocity a time `t >= 0` after the state `(u0, v0)`.
     #[inline]
     pub fn state_at(&self, u0: f64, v0: f64, t: f64) -> (f64, f64) {
@@ -413,6 +469,21 @@ impl LinearPhase {
     }
 }
 
+/// `(e^x - 1 - x) / x^2`, accurate for every `x` (series near 0).
+fn phi2(x: f64) -> f64 {
+    if x.abs() < 0.05 {
+        let mut term = 0.5;
+        let mut sum = 0.5;
+        for n in 3..12 {
+            term *= x / n as f64;
+            sum += term;
+        }
+        sum
+    } else {
+        (x.exp_m1() - x) / (x * x)
+    }
+}
+
 /// Root in `[0, 1]` of the cubic Hermite interpolant with values `f0 < 0 <=
 /// f1` and scaled slopes `d0, d1 >= 0` at the ends (Newton from the secant).
 fn hermite_root(f0: f64, d0: f64, f1: f64, d1: f64) -> f64 {
@@ -514,6 +585,63 @@ mod tests {
                 assert!((u - ur).abs() < 1e-13, "u {a} {k} {c} t={t}: {u} vs {ur}");
                 assert!((v - vr).abs() < 1e-13, "v {a} {k} {c} t={t}: {v} vs {vr}");
             }
+        }
+    }
+
+    /// `G` in every regime: against the Taylor integration of
+    /// `u'' + 2 alpha u' + K u + r = 0` with `r = t` (by linearity, the ramp
+    /// response is the difference of two integrations with `C` shifted).
+    #[test]
+    fn ramp_response_matches_a_taylor_integration() {
+        let cases = [
+            (0.1, 10.0),
+            (0.5, 0.25),
+            (1.0, 0.2),
+            (0.3, 0.0),
+            (0.2, -0.5),
+            (0.0, 4.0),
+            (0.0, 0.0),
+            (3.0, 1e-4),
+            (40.0, 0.5),
+            (0.4, 0.16 + 1e-9),
+        ];
+        for &(a, k) in &cases {
+            let p = LinearPhase::new(a, k, 0.0);
+            for &t in &[1e-4, 0.01, 0.3, 1.0, 2.7] {
+                let g = p.ramp(t, &p.basis(t));
+                // G(t) = int_0^t E: trapezoid-free check via the ODE
+                // E' + 2 alpha E + K G = t, with E and E' = e^(-alpha t) s(t)
+                // from the Taylor integration of the unit-force response.
+                let (e, es) = taylor(a, k, -1.0, 0.0, 0.0, t);
+                let lhs = es + 2.0 * a * e + k * g;
+                assert!((lhs - t).abs() < 1e-12 * t.max(1.0), "{a} {k} t={t}: {lhs} vs {t}");
+                // And G itself, where K is too small for the identity to
+                // fix it: the series G = t^3/6 - 2 alpha t^4/24 + ... to
+                // first order in the rates.
+                if a * t < 1e-3 && k * t * t < 1e-3 {
+                    assert!((g - t * t * t / 6.0).abs() < 1e-3 * t * t * t);
+                }
+            }
+        }
+    }
+
+    /// `G` is the integral of `E`: Simpson's rule on a fine grid.
+    #[test]
+    fn ramp_response_is_the_integral_of_the_step_response() {
+        for &(a, k) in &[(0.1, 10.0), (3.0, 1e-4), (40.0, 0.5), (0.2, -0.5), (0.0, 1e-9)] {
+            let p = LinearPhase::new(a, k, 0.0);
+            let t = 1.3;
+            let n = 20000;
+            let h = t / n as f64;
+            let mut sum = 0.0;
+            for i in 0..=n {
+                let w = if i == 0 || i == n { 1.0 } else if i % 2 == 1 { 4.0 } else { 2.0 };
+                let r = i as f64 * h;
+                sum += w * p.basis(r).e;
+            }
+            let simpson = sum * h / 3.0;
+            let g = p.ramp(t, &p.basis(t));
+            assert!((g - simpson).abs() < 1e-12 * g.abs().max(1e-3), "{a} {k}: {g} vs {simpson}");
         }
     }
 

@@ -23,6 +23,7 @@ mod design;
 mod energy;
 mod evidence;
 mod evidence_analytic;
+mod forced;
 mod identifiability;
 mod map_synthetic;
 mod model_props;
