@@ -47,5 +47,6 @@ pub mod data;
 pub mod inference;
 pub mod model;
 pub mod numeric;
+pub mod predict;
 pub mod report;
 pub mod study;

@@ -7,6 +7,7 @@ mod criticize;
 mod demo;
 mod fit;
 mod inputs;
+mod predict;
 mod simulate;
 
 use std::io::Write;
@@ -39,6 +40,9 @@ enum Command {
     Ladder(criticize::LadderArgs),
     /// Run the built-in demonstration on the Solarino Test 5 parameters.
     Demo(demo::Args),
+    /// The identified system's response to an earthquake: each posterior
+    /// draw of a fit (or one parameter set) under a ground motion.
+    Predict(predict::Args),
     /// Fit a study of many records (records x models x seeds from a TOML
     /// manifest): resumable, split into shards, collected into one summary.
     Batch(batch::Args),
@@ -56,6 +60,7 @@ pub fn main() -> ExitCode {
         Command::Ladder(a) => criticize::run_ladder(a),
         Command::Demo(a) => demo::run(a),
         Command::Batch(a) => batch::run(a),
+        Command::Predict(a) => predict::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -172,6 +172,15 @@ impl ForcedSink for () {
     fn sample(&mut self, _: usize, _: f64, _: f64, _: f64) {}
 }
 
+/// Both sinks, in turn.
+impl<A: ForcedSink, B: ForcedSink> ForcedSink for (A, B) {
+    #[inline]
+    fn sample(&mut self, i: usize, u: f64, v: f64, total: f64) {
+        self.0.sample(i, u, v, total);
+        self.1.sample(i, u, v, total);
+    }
+}
+
 /// Displacement history: `u` at every sample.
 impl ForcedSink for Vec<f64> {
     fn sample(&mut self, i: usize, u: f64, _: f64, _: f64) {

@@ -1003,3 +1003,210 @@ mod tick_tests {
         eprintln!("{} {}", super::tick(&-1e-17), super::tick(&-2.5e-9));
     }
 }
+
+/// The posterior predictive displacement under a ground motion: the 5-95 %
+/// band and the median over time (top), the ground acceleration (bottom).
+pub fn response_band_figure(
+    path: &Path,
+    band: &crate::predict::Band,
+    motion: (f64, &[f64]),
+    capacity: Option<f64>,
+) -> Result<(), FigureError> {
+    let ext = checked_extension(path)?;
+    render!(
+        path,
+        &ext,
+        (1400, 900),
+        draw_band(band, motion, capacity)
+    )
+}
+
+fn draw_band<DB: DrawingBackend>(
+    root: DrawingArea<DB, Shift>,
+    band: &crate::predict::Band,
+    (dt, ag): (f64, &[f64]),
+    capacity: Option<f64>,
+) -> Result<(), String> {
+    let e = |x: DrawingAreaErrorKind<DB::ErrorType>| x.to_string();
+    root.fill(&WHITE).map_err(e)?;
+    let root = root
+        .titled("Posterior predictive response to the ground motion", (FONT, 26))
+        .map_err(e)?;
+    let (top, bottom) = root.split_vertically(root.dim_in_pixel().1 * 2 / 3);
+    let t1 = band.t.last().copied().unwrap_or(1.0).max(dt);
+    let cap = capacity.into_iter().flat_map(|c| [c, -c]);
+    let ys = range(band.q05.iter().chain(&band.q95).map(|v| 1e3 * v).chain(cap.map(|c| 1e3 * c)));
+    let mut chart = ChartBuilder::on(&top)
+        .margin(20)
+        .x_label_area_size(40)
+        .y_label_area_size(90)
+        .build_cartesian_2d(0.0..t1, ys)
+        .map_err(e)?;
+    chart
+        .configure_mesh()
+        .y_desc("isolator displacement u (mm)")
+        .x_label_formatter(&tick)
+        .y_label_formatter(&tick)
+        .label_style((FONT, 14))
+        .axis_desc_style((FONT, 16))
+        .draw()
+        .map_err(e)?;
+    let blue = RGBColor(31, 119, 180);
+    let upper: Vec<(f64, f64)> = band.t.iter().zip(&band.q95).map(|(t, v)| (*t, 1e3 * v)).collect();
+    let lower: Vec<(f64, f64)> = band.t.iter().zip(&band.q05).map(|(t, v)| (*t, 1e3 * v)).rev().collect();
+    chart
+        .draw_series(std::iter::once(Polygon::new(
+            upper.iter().chain(&lower).copied().collect::<Vec<_>>(),
+            blue.mix(0.25).filled(),
+        )))
+        .map_err(e)?
+        .label("5-95 % of the draws")
+        .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 20, y + 5)], blue.mix(0.25).filled()));
+    chart
+        .draw_series(LineSeries::new(
+            band.t.iter().zip(&band.q50).map(|(t, v)| (*t, 1e3 * v)),
+            blue.stroke_width(2),
+        ))
+        .map_err(e)?
+        .label("median")
+        .legend(move |(x, y)| PathElement::new([(x, y), (x + 20, y)], blue.stroke_width(2)));
+    if let Some(c) = capacity {
+        let red = RGBColor(214, 39, 40);
+        for s in [1.0, -1.0] {
+            chart
+                .draw_series(DashedLineSeries::new(
+                    [(0.0, s * 1e3 * c), (t1, s * 1e3 * c)],
+                    10,
+                    6,
+                    red.stroke_width(2),
+                ))
+                .map_err(e)?;
+        }
+    }
+    chart
+        .configure_series_labels()
+        .label_font((FONT, 14))
+        .background_style(WHITE.mix(0.8))
+        .border_style(BLACK)
+        .position(SeriesLabelPosition::UpperRight)
+        .draw()
+        .map_err(e)?;
+    let ys = range(ag.iter().copied());
+    let mut chart = ChartBuilder::on(&bottom)
+        .margin(20)
+        .x_label_area_size(40)
+        .y_label_area_size(90)
+        .build_cartesian_2d(0.0..t1, ys)
+        .map_err(e)?;
+    chart
+        .configure_mesh()
+        .x_desc("time (s)")
+        .y_desc("ground acceleration (m/s^2)")
+        .x_label_formatter(&tick)
+        .y_label_formatter(&tick)
+        .label_style((FONT, 14))
+        .axis_desc_style((FONT, 16))
+        .draw()
+        .map_err(e)?;
+    chart
+        .draw_series(LineSeries::new(
+            ag.iter().enumerate().map(|(i, a)| (i as f64 * dt, *a)),
+            RGBColor(90, 90, 90).stroke_width(1),
+        ))
+        .map_err(e)?;
+    root.present().map_err(e)
+}
+
+/// The distribution of the peak isolator displacement over the draws, the
+/// capacity marked, with the share beyond it.
+pub fn peak_displacement_figure(
+    path: &Path,
+    peaks: &[f64],
+    capacity: Option<f64>,
+    p_exceed: Option<f64>,
+) -> Result<(), FigureError> {
+    let ext = checked_extension(path)?;
+    render!(
+        path,
+        &ext,
+        (1200, 800),
+        draw_peaks(peaks, capacity, p_exceed)
+    )
+}
+
+fn draw_peaks<DB: DrawingBackend>(
+    root: DrawingArea<DB, Shift>,
+    peaks: &[f64],
+    capacity: Option<f64>,
+    p_exceed: Option<f64>,
+) -> Result<(), String> {
+    let e = |x: DrawingAreaErrorKind<DB::ErrorType>| x.to_string();
+    root.fill(&WHITE).map_err(e)?;
+    let title = match (capacity, p_exceed) {
+        (Some(c), Some(p)) => format!(
+            "Peak isolator displacement over {} draws: P(peak > {:.0} mm) = {:.3}",
+            peaks.len(),
+            1e3 * c,
+            p
+        ),
+        _ => format!("Peak isolator displacement over {} draws", peaks.len()),
+    };
+    let root = root.titled(&title, (FONT, 24)).map_err(e)?;
+    let mm: Vec<f64> = peaks.iter().map(|p| 1e3 * p).collect();
+    // Bins over the draws only; the axis also reaches the capacity.
+    let data = range(mm.iter().copied());
+    let xr = range(mm.iter().copied().chain(capacity.map(|c| 1e3 * c)));
+    let bins = ((mm.len() as f64).sqrt().ceil() as usize).clamp(5, 60);
+    let width = (data.end - data.start) / bins as f64;
+    let mut counts = vec![0usize; bins];
+    for x in &mm {
+        let k = (((x - data.start) / width) as usize).min(bins - 1);
+        counts[k] += 1;
+    }
+    let top = counts.iter().copied().max().unwrap_or(1) as f64 * 1.1;
+    let mut chart = ChartBuilder::on(&root)
+        .margin(20)
+        .x_label_area_size(45)
+        .y_label_area_size(70)
+        .build_cartesian_2d(xr.clone(), 0.0..top)
+        .map_err(e)?;
+    chart
+        .configure_mesh()
+        .x_desc("peak displacement (mm)")
+        .y_desc("draws")
+        .x_label_formatter(&tick)
+        .y_label_formatter(&|y| format!("{y:.0}"))
+        .label_style((FONT, 14))
+        .axis_desc_style((FONT, 16))
+        .draw()
+        .map_err(e)?;
+    let blue = RGBColor(31, 119, 180);
+    chart
+        .draw_series(counts.iter().enumerate().map(|(k, c)| {
+            let x0 = data.start + k as f64 * width;
+            Rectangle::new([(x0, 0.0), (x0 + width, *c as f64)], blue.mix(0.6).filled())
+        }))
+        .map_err(e)?;
+    if let Some(c) = capacity {
+        let red = RGBColor(214, 39, 40);
+        chart
+            .draw_series(DashedLineSeries::new(
+                [(1e3 * c, 0.0), (1e3 * c, top)],
+                10,
+                6,
+                red.stroke_width(3),
+            ))
+            .map_err(e)?
+            .label(format!("capacity {:.0} mm", 1e3 * c))
+            .legend(move |(x, y)| PathElement::new([(x, y), (x + 20, y)], red.stroke_width(3)));
+        chart
+            .configure_series_labels()
+            .label_font((FONT, 14))
+            .background_style(WHITE.mix(0.8))
+            .border_style(BLACK)
+            .position(SeriesLabelPosition::UpperRight)
+            .draw()
+            .map_err(e)?;
+    }
+    root.present().map_err(e)
+}

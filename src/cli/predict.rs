@@ -1,0 +1,389 @@
+//! `hbis predict`: the identified posterior's response to an earthquake.
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+use anyhow::{bail, Context, Result};
+use hbis::data::ground_motion::{GroundMotion, KanaiTajimi};
+use hbis::data::validation::AccelUnits;
+use hbis::model::{ForwardModel, Model};
+use hbis::predict::{predict, Draw, Extrapolation, FitDraws, PredictOptions, Prediction, Stats, Summary};
+use hbis::report::outdir::{InputEntry, OutDir};
+use serde::Serialize;
+
+use super::inputs;
+
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// Folder of a fit (`hbis fit --out`): its posterior draws are simulated.
+    #[arg(long, conflicts_with_all = ["model", "params"], required_unless_present = "model")]
+    fit: Option<PathBuf>,
+    /// Model spec, to simulate one parameter set (with --params).
+    #[arg(long, requires = "params")]
+    model: Option<String>,
+    /// JSON file of the model's parameters, `{"u0": 0.1166, "uy": 0.01167, ...}`.
+    #[arg(long, requires = "model")]
+    params: Option<PathBuf>,
+    /// Ground motion: a PEER NGA `.AT2` file, or two columns `t ag` (text
+    /// or CSV; uniformly sampled).
+    #[arg(long, conflicts_with = "synthetic", required_unless_present = "synthetic")]
+    motion: Option<PathBuf>,
+    /// Unit of the motion's acceleration: `g`, `m/s2` or `mm/s2`. An
+    /// `.AT2` file states its own (g); a two-column file needs this.
+    #[arg(long)]
+    motion_units: Option<String>,
+    /// Scale factor applied to the motion.
+    #[arg(long, default_value_t = 1.0, allow_negative_numbers = true)]
+    scale: f64,
+    /// Instead of a file: a synthetic Kanai-Tajimi motion (firm soil, 40 s
+    /// at 100 Hz) of seed --seed, scaled to --pga.
+    #[arg(long)]
+    synthetic: bool,
+    /// Peak ground acceleration of the synthetic motion (m/s^2).
+    #[arg(long, default_value_t = 0.3 * 9.80665, requires = "synthetic")]
+    pga: f64,
+    /// Seed of the synthetic motion (the draws are taken evenly through the
+    /// chains, without randomness).
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Posterior draws to simulate, evenly spaced through the chains.
+    #[arg(long, default_value_t = 1000)]
+    draws: usize,
+    /// Seconds simulated after the motion ends, to come to rest.
+    #[arg(long, default_value_t = 20.0, allow_negative_numbers = true)]
+    tail: f64,
+    /// Displacement capacity of the isolators (m): the probability that the
+    /// peak displacement exceeds it is reported.
+    #[arg(long, allow_negative_numbers = true)]
+    capacity: Option<f64>,
+    /// Mass `m` (t) for the base shear in kN (default: the fit's eq. 8.1
+    /// mass per draw, when it was given the forces).
+    #[arg(long, allow_negative_numbers = true)]
+    mass: Option<f64>,
+    /// Output folder.
+    #[arg(long, default_value = "hbis-predict")]
+    out: PathBuf,
+    /// Print predict.json to standard output instead of the table.
+    #[arg(long)]
+    json: bool,
+}
+
+/// `predict.json`.
+#[derive(Debug, Serialize)]
+struct Report<'a> {
+    hbis_version: &'a str,
+    command: &'a str,
+    model: String,
+    seed: u64,
+    source: Source,
+    motion: MotionInfo,
+    tail: f64,
+    capacity: Option<f64>,
+    draws: usize,
+    summary: &'a Summary,
+    p_exceed_capacity: Option<f64>,
+    extrapolation: &'a Extrapolation,
+    warnings: &'a [String],
+}
+
+#[derive(Debug, Serialize)]
+struct Source {
+    fit: Option<String>,
+    params: Option<String>,
+    fit_seed: Option<u64>,
+}
+
+#[derive(Debug, Serialize)]
+struct MotionInfo {
+    source: String,
+    dt: f64,
+    samples: usize,
+    duration: f64,
+    pga: f64,
+    scale: f64,
+}
+
+pub fn run(a: Args) -> Result<()> {
+    check(&a)?;
+    let motion = motion(&a)?;
+    let (model, draws, fit_seed) = draws(&a)?;
+    let opts = PredictOptions {
+        tail: a.tail,
+        capacity: a.capacity,
+        band_points: 2000,
+    };
+    let inputs: Vec<&Path> = [a.motion.as_deref(), a.params.as_deref()]
+        .into_iter()
+        .flatten()
+        .collect();
+    let mut dir = OutDir::open(&a.out, &inputs, "predict")?;
+    let p = predict(&model, &draws, motion.dt, &motion.ag, &opts)?;
+    let report = Report {
+        hbis_version: env!("CARGO_PKG_VERSION"),
+        command: "predict",
+        model: model.name(),
+        seed: a.seed,
+        source: Source {
+            fit: a.fit.as_ref().map(|p| p.display().to_string()),
+            params: a.params.as_ref().map(|p| p.display().to_string()),
+            fit_seed,
+        },
+        motion: MotionInfo {
+            source: motion.source.clone(),
+            dt: motion.dt,
+            samples: motion.ag.len(),
+            duration: motion.duration(),
+            pga: motion.pga(),
+            scale: a.scale,
+        },
+        tail: a.tail,
+        capacity: a.capacity,
+        draws: draws.len(),
+        summary: &p.summary,
+        p_exceed_capacity: p.p_exceed_capacity,
+        extrapolation: &p.extrapolation,
+        warnings: &p.warnings,
+    };
+    let json = serde_json::to_string_pretty(&report)? + "\n";
+    dir.write("draws.csv", draws_csv(&model, &draws, &p, a.capacity).as_bytes())?;
+    if let Some(b) = &p.band {
+        let mut s = String::from("t,q05,q50,q95\n");
+        for i in 0..b.t.len() {
+            s += &format!("{},{},{},{}\n", b.t[i], b.q05[i], b.q50[i], b.q95[i]);
+        }
+        dir.write("band.csv", s.as_bytes())?;
+    }
+    figures(&mut dir, &p, &motion, a.capacity)?;
+    dir.write("predict.json", json.as_bytes())?;
+    let record = a.motion.as_deref().map(InputEntry::of).transpose()?;
+    dir.finish("predict", a.seed, &model.name(), record)?;
+    for w in &p.warnings {
+        eprintln!("warning: {w}");
+    }
+    if a.json {
+        return super::print_stdout(&json);
+    }
+    let mut out = std::io::stdout().lock();
+    print_summary(&mut out, &p, draws.len(), &motion)?;
+    writeln!(
+        out,
+        "wrote {} and draws.csv, band.csv, response.png, peak-displacement.png beside it",
+        dir_path(&a.out, "predict.json").display()
+    )?;
+    Ok(())
+}
+
+fn dir_path(root: &Path, name: &str) -> PathBuf {
+    root.join(name)
+}
+
+/// Settings refused before any work.
+fn check(a: &Args) -> Result<()> {
+    let positive = |name: &str, v: f64| -> Result<()> {
+        if !(v.is_finite() && v > 0.0) {
+            bail!("--{name} {v}: expected a finite number > 0");
+        }
+        Ok(())
+    };
+    if !(a.tail.is_finite() && a.tail >= 0.0) {
+        bail!("--tail {}: expected a finite time >= 0 s", a.tail);
+    }
+    if let Some(c) = a.capacity {
+        positive("capacity", c)?;
+    }
+    if let Some(m) = a.mass {
+        positive("mass", m)?;
+    }
+    if a.synthetic {
+        positive("pga", a.pga)?;
+    }
+    if a.draws == 0 {
+        bail!("--draws 0: expected at least one draw");
+    }
+    if !a.scale.is_finite() || a.scale == 0.0 {
+        bail!("--scale {}: expected a finite, nonzero factor", a.scale);
+    }
+    Ok(())
+}
+
+fn motion(a: &Args) -> Result<GroundMotion> {
+    let units = a
+        .motion_units
+        .as_deref()
+        .map(|u| {
+            u.parse::<AccelUnits>()
+                .with_context(|| format!("--motion-units `{u}`"))
+        })
+        .transpose()?;
+    let m = match &a.motion {
+        Some(path) => {
+            let at2 = path
+                .extension()
+                .is_some_and(|e| e.eq_ignore_ascii_case("at2"));
+            if at2 {
+                GroundMotion::read_at2(path, units)?
+            } else {
+                let Some(units) = units else {
+                    bail!(
+                        "--motion {}: state the unit of a two-column motion with --motion-units g, m/s2 or mm/s2",
+                        path.display()
+                    );
+                };
+                GroundMotion::read_columns(path, units)?
+            }
+        }
+        None => {
+            let kt = KanaiTajimi {
+                pga: a.pga,
+                ..KanaiTajimi::default()
+            };
+            kt.generate(a.seed)?
+        }
+    };
+    Ok(m.scaled(a.scale)?)
+}
+
+/// The model and the parameter sets to simulate.
+fn draws(a: &Args) -> Result<(Model, Vec<Draw>, Option<u64>)> {
+    let (model, mut draws, seed) = match (&a.fit, &a.model, &a.params) {
+        (Some(dir), _, _) => {
+            let fit = FitDraws::read(dir).with_context(|| format!("--fit {}", dir.display()))?;
+            if fit.draws.len() < a.draws {
+                eprintln!(
+                    "warning: the fit holds {} draws, fewer than --draws {}: all are used",
+                    fit.draws.len(),
+                    a.draws
+                );
+            }
+            let d = fit.thinned(a.draws);
+            (fit.model, d, Some(fit.seed))
+        }
+        (None, Some(spec), Some(path)) => {
+            let model = inputs::model(spec)?;
+            let theta = params(&model, path)?;
+            (model, vec![Draw::new(theta)], None)
+        }
+        _ => bail!("give --fit DIR, or --model SPEC with --params FILE"),
+    };
+    if let Some(m) = a.mass {
+        draws.iter_mut().for_each(|d| d.mass = Some(m));
+    }
+    Ok((model, draws, seed))
+}
+
+/// Every parameter of `model` from a JSON object, by name.
+fn params(model: &Model, path: &Path) -> Result<Vec<f64>> {
+    let within = || format!("parameters {}", path.display());
+    let text = std::fs::read_to_string(path).with_context(within)?;
+    let value: serde_json::Value = serde_json::from_str(&text).with_context(within)?;
+    let Some(obj) = value.as_object() else {
+        bail!("{}: expected a JSON object of parameters", within());
+    };
+    let names = model.param_names();
+    if let Some(k) = obj.keys().find(|k| !names.contains(k)) {
+        bail!(
+            "{}: unknown parameter `{k}` for model `{}` (its parameters: {})",
+            within(),
+            model.name(),
+            names.join(", ")
+        );
+    }
+    let theta = names
+        .iter()
+        .map(|n| match obj.get(n) {
+            Some(v) => v
+                .as_f64()
+                .filter(|x| x.is_finite())
+                .with_context(|| format!("{}: parameter `{n}` = {v}: expected a finite number", within())),
+            None => bail!("{}: missing parameter `{n}` of model `{}`", within(), model.name()),
+        })
+        .collect::<Result<Vec<_>>>()?;
+    model.check(&theta).with_context(within)?;
+    Ok(theta)
+}
+
+fn draws_csv(model: &Model, draws: &[Draw], p: &Prediction, capacity: Option<f64>) -> String {
+    let names = model.param_names();
+    let mut s = String::from("draw,chain,row,");
+    s += &names.join(",");
+    s += ",m,peak_displacement,residual_displacement,peak_base_shear,peak_total_acceleration,peak_base_shear_kN,exceeds_capacity\n";
+    let opt = |x: Option<f64>| x.map(|v| v.to_string()).unwrap_or_default();
+    for (i, (d, o)) in draws.iter().zip(&p.outcomes).enumerate() {
+        let (chain, row) = d.origin.map_or((String::new(), String::new()), |(c, r)| (c.to_string(), r.to_string()));
+        let theta: Vec<String> = d.theta.iter().map(f64::to_string).collect();
+        let k = &o.peaks;
+        s += &format!(
+            "{},{chain},{row},{},{},{},{},{},{},{},{}\n",
+            i + 1,
+            theta.join(","),
+            opt(d.mass),
+            k.peak_displacement,
+            k.residual_displacement,
+            k.peak_base_shear,
+            k.peak_total_acceleration,
+            opt(o.peak_base_shear_kn),
+            capacity.map_or(String::new(), |c| (k.peak_displacement > c).to_string()),
+        );
+    }
+    s
+}
+
+#[cfg(feature = "figures")]
+fn figures(dir: &mut OutDir, p: &Prediction, motion: &GroundMotion, capacity: Option<f64>) -> Result<()> {
+    use hbis::report::figures;
+    if let Some(b) = &p.band {
+        dir.write_with("response.png", |tmp| {
+            figures::response_band_figure(tmp, b, (motion.dt, &motion.ag), capacity)
+        })?;
+    }
+    let peaks: Vec<f64> = p.outcomes.iter().map(|o| o.peaks.peak_displacement).collect();
+    dir.write_with("peak-displacement.png", |tmp| {
+        figures::peak_displacement_figure(tmp, &peaks, capacity, p.p_exceed_capacity)
+    })?;
+    Ok(())
+}
+
+#[cfg(not(feature = "figures"))]
+fn figures(_: &mut OutDir, _: &Prediction, _: &GroundMotion, _: Option<f64>) -> Result<()> {
+    Ok(())
+}
+
+fn print_summary(out: &mut impl Write, p: &Prediction, n: usize, m: &GroundMotion) -> Result<()> {
+    writeln!(
+        out,
+        "Response to {} ({:.1} s, PGA {:.3} m/s^2 = {:.3} g), {n} parameter set{}:",
+        m.source,
+        m.duration(),
+        m.pga(),
+        m.pga() / 9.80665,
+        if n == 1 { "" } else { "s" }
+    )?;
+    writeln!(
+        out,
+        "  {:28} {:>11} {:>11} {:>11} {:>11} {:>11}",
+        "", "mean", "sd", "q05", "q50", "q95"
+    )?;
+    let row = |out: &mut dyn Write, name: &str, s: &Stats, scale: f64| -> std::io::Result<()> {
+        writeln!(
+            out,
+            "  {name:28} {:>11.4} {:>11.4} {:>11.4} {:>11.4} {:>11.4}",
+            scale * s.mean,
+            scale * s.sd,
+            scale * s.q05,
+            scale * s.q50,
+            scale * s.q95
+        )
+    };
+    let s = &p.summary;
+    row(out, "peak displacement (mm)", &s.peak_displacement, 1e3)?;
+    row(out, "residual displacement (mm)", &s.residual_displacement, 1e3)?;
+    row(out, "peak base shear / m (m/s^2)", &s.peak_base_shear, 1.0)?;
+    if let Some(k) = &s.peak_base_shear_kn {
+        row(out, "peak base shear (kN)", k, 1.0)?;
+    }
+    row(out, "peak total accel. (m/s^2)", &s.peak_total_acceleration, 1.0)?;
+    if let Some(q) = p.p_exceed_capacity {
+        writeln!(out, "  P(peak displacement > capacity) = {q:.4}")?;
+    }
+    Ok(())
+}
