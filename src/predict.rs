@@ -292,10 +292,8 @@ pub fn predict(
             "capacity {c} m: expected a finite displacement > 0"
         )));
     }
-    let ex = Excitation::new(dt, ag, opts.tail).map_err(|source| PredictError::Draw {
-        draw: 0,
-        source,
-    })?;
+    let ex = Excitation::new(dt, ag, opts.tail)
+        .map_err(|source| PredictError::Draw { draw: 0, source })?;
     let every = if opts.band_points == 0 {
         usize::MAX
     } else {
@@ -383,10 +381,7 @@ fn extrapolation(
     };
     ratios.sort_unstable_by(f64::total_cmp);
     let beyond = ratios.iter().filter(|&&r| r > 1.0).count() as f64;
-    let floored = outcomes
-        .iter()
-        .filter(|o| o.peaks.friction_floored)
-        .count() as f64;
+    let floored = outcomes.iter().filter(|o| o.peaks.friction_floored).count() as f64;
     Extrapolation {
         share_beyond_release: beyond / n,
         max_ratio_to_release: ratios.last().copied().unwrap_or(f64::NAN),
@@ -544,9 +539,7 @@ fn read_chain(
         .lines()
         .enumerate()
         .filter(|(_, l)| !l.starts_with('#') && !l.trim().is_empty());
-    let (hl, header) = lines
-        .next()
-        .ok_or_else(|| err(1, "no header row".into()))?;
+    let (hl, header) = lines.next().ok_or_else(|| err(1, "no header row".into()))?;
     let cols: Vec<&str> = header.split(',').map(str::trim).collect();
     let find = |name: &str| cols.iter().position(|c| *c == name);
     let idx: Vec<usize> = model
@@ -558,14 +551,22 @@ fn read_chain(
     for (row, (ln, line)) in lines.enumerate() {
         let fields: Vec<&str> = line.split(',').collect();
         let value = |k: usize| -> Result<f64, PredictError> {
-            let s = fields
-                .get(k)
-                .ok_or_else(|| err(ln + 1, format!("{} fields, expected {}", fields.len(), cols.len())))?;
+            let s = fields.get(k).ok_or_else(|| {
+                err(
+                    ln + 1,
+                    format!("{} fields, expected {}", fields.len(), cols.len()),
+                )
+            })?;
             s.trim()
                 .parse::<f64>()
                 .ok()
                 .filter(|v| v.is_finite())
-                .ok_or_else(|| err(ln + 1, format!("column `{}`: `{s}` is not a finite number", cols[k])))
+                .ok_or_else(|| {
+                    err(
+                        ln + 1,
+                        format!("column `{}`: `{s}` is not a finite number", cols[k]),
+                    )
+                })
         };
         let theta = idx.iter().map(|&k| value(k)).collect::<Result<_, _>>()?;
         let mass = mass.map(value).transpose()?;

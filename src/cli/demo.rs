@@ -68,6 +68,7 @@ pub fn run(a: Args) -> Result<()> {
         writeln!(out, "wrote {}", dir.path("test5.png").display())?;
     }
     identify(&mut out, &mut dir)?;
+    earthquake(&mut out, &mut dir)?;
     criticize(&mut out, &mut dir)?;
     dir.finish("demo", SEED, &spec.to_string(), None)?;
     Ok(())
@@ -223,6 +224,50 @@ fn identify(out: &mut impl Write, dir: &mut OutDir) -> Result<()> {
         fit_dir.join("fit.json").display(),
         record_path.display(),
         fit_dir.display()
+    )?;
+    Ok(())
+}
+
+/// The identified posterior under an earthquake: the fit's draws under a
+/// synthetic Kanai-Tajimi motion (0.3 g), against a 0.3 m capacity.
+fn earthquake(out: &mut impl Write, dir: &mut OutDir) -> Result<()> {
+    let fit_dir = dir.path("fit");
+    let fit = hbis::predict::FitDraws::read(&fit_dir)?;
+    let motion = hbis::data::ground_motion::KanaiTajimi::default().generate(SEED)?;
+    let job = super::predict::Job {
+        model: fit.model.clone(),
+        draws: fit.thinned(1000),
+        fit: Some(fit_dir.clone()),
+        fit_seed: Some(fit.seed),
+        params: None,
+        motion,
+        scale: 1.0,
+        seed: SEED,
+        opts: hbis::predict::PredictOptions {
+            tail: 20.0,
+            capacity: Some(0.3),
+            band_points: 2000,
+        },
+    };
+    writeln!(
+        out,
+        "\nEarthquake: the posterior draws from rest under a synthetic motion"
+    )?;
+    let pred_dir = dir.path("predict");
+    dir.set_prefix("predict");
+    let (p, _) = super::predict::write(dir, &job)?;
+    dir.set_prefix("");
+    super::predict::print_summary(out, &p, job.draws.len(), &job.motion)?;
+    for w in &p.warnings {
+        writeln!(out, "  note: {w}")?;
+    }
+    writeln!(
+        out,
+        "wrote {} and draws.csv, band.csv, response.png, peak-displacement.png beside it (same as: hbis predict \
+         --fit {} --synthetic --seed {SEED} --capacity 0.3 --out {})",
+        pred_dir.join("predict.json").display(),
+        fit_dir.display(),
+        pred_dir.display()
     )?;
     Ok(())
 }

@@ -7,7 +7,9 @@ use anyhow::{bail, Context, Result};
 use hbis::data::ground_motion::{GroundMotion, KanaiTajimi};
 use hbis::data::validation::AccelUnits;
 use hbis::model::{ForwardModel, Model};
-use hbis::predict::{predict, Draw, Extrapolation, FitDraws, PredictOptions, Prediction, Stats, Summary};
+use hbis::predict::{
+    predict, Draw, Extrapolation, FitDraws, PredictOptions, Prediction, Stats, Summary,
+};
 use hbis::report::outdir::{InputEntry, OutDir};
 use serde::Serialize;
 
@@ -26,7 +28,11 @@ pub struct Args {
     params: Option<PathBuf>,
     /// Ground motion: a PEER NGA `.AT2` file, or two columns `t ag` (text
     /// or CSV; uniformly sampled).
-    #[arg(long, conflicts_with = "synthetic", required_unless_present = "synthetic")]
+    #[arg(
+        long,
+        conflicts_with = "synthetic",
+        required_unless_present = "synthetic"
+    )]
     motion: Option<PathBuf>,
     /// Unit of the motion's acceleration: `g`, `m/s2` or `mm/s2`. An
     /// `.AT2` file states its own (g); a two-column file needs this.
@@ -103,60 +109,46 @@ struct MotionInfo {
     scale: f64,
 }
 
+/// One prediction to run and write.
+pub(super) struct Job {
+    pub model: Model,
+    pub draws: Vec<Draw>,
+    pub fit: Option<PathBuf>,
+    pub fit_seed: Option<u64>,
+    pub params: Option<PathBuf>,
+    pub motion: GroundMotion,
+    pub scale: f64,
+    pub seed: u64,
+    pub opts: PredictOptions,
+}
+
 pub fn run(a: Args) -> Result<()> {
     check(&a)?;
     let motion = motion(&a)?;
     let (model, draws, fit_seed) = draws(&a)?;
-    let opts = PredictOptions {
-        tail: a.tail,
-        capacity: a.capacity,
-        band_points: 2000,
+    let job = Job {
+        model,
+        draws,
+        fit: a.fit.clone(),
+        fit_seed,
+        params: a.params.clone(),
+        motion,
+        scale: a.scale,
+        seed: a.seed,
+        opts: PredictOptions {
+            tail: a.tail,
+            capacity: a.capacity,
+            band_points: 2000,
+        },
     };
     let inputs: Vec<&Path> = [a.motion.as_deref(), a.params.as_deref()]
         .into_iter()
         .flatten()
         .collect();
     let mut dir = OutDir::open(&a.out, &inputs, "predict")?;
-    let p = predict(&model, &draws, motion.dt, &motion.ag, &opts)?;
-    let report = Report {
-        hbis_version: env!("CARGO_PKG_VERSION"),
-        command: "predict",
-        model: model.name(),
-        seed: a.seed,
-        source: Source {
-            fit: a.fit.as_ref().map(|p| p.display().to_string()),
-            params: a.params.as_ref().map(|p| p.display().to_string()),
-            fit_seed,
-        },
-        motion: MotionInfo {
-            source: motion.source.clone(),
-            dt: motion.dt,
-            samples: motion.ag.len(),
-            duration: motion.duration(),
-            pga: motion.pga(),
-            scale: a.scale,
-        },
-        tail: a.tail,
-        capacity: a.capacity,
-        draws: draws.len(),
-        summary: &p.summary,
-        p_exceed_capacity: p.p_exceed_capacity,
-        extrapolation: &p.extrapolation,
-        warnings: &p.warnings,
-    };
-    let json = serde_json::to_string_pretty(&report)? + "\n";
-    dir.write("draws.csv", draws_csv(&model, &draws, &p, a.capacity).as_bytes())?;
-    if let Some(b) = &p.band {
-        let mut s = String::from("t,q05,q50,q95\n");
-        for i in 0..b.t.len() {
-            s += &format!("{},{},{},{}\n", b.t[i], b.q05[i], b.q50[i], b.q95[i]);
-        }
-        dir.write("band.csv", s.as_bytes())?;
-    }
-    figures(&mut dir, &p, &motion, a.capacity)?;
-    dir.write("predict.json", json.as_bytes())?;
+    let (p, json) = write(&mut dir, &job)?;
     let record = a.motion.as_deref().map(InputEntry::of).transpose()?;
-    dir.finish("predict", a.seed, &model.name(), record)?;
+    dir.finish("predict", a.seed, &job.model.name(), record)?;
     for w in &p.warnings {
         eprintln!("warning: {w}");
     }
@@ -164,17 +156,62 @@ pub fn run(a: Args) -> Result<()> {
         return super::print_stdout(&json);
     }
     let mut out = std::io::stdout().lock();
-    print_summary(&mut out, &p, draws.len(), &motion)?;
+    print_summary(&mut out, &p, job.draws.len(), &job.motion)?;
     writeln!(
         out,
         "wrote {} and draws.csv, band.csv, response.png, peak-displacement.png beside it",
-        dir_path(&a.out, "predict.json").display()
+        a.out.join("predict.json").display()
     )?;
     Ok(())
 }
 
-fn dir_path(root: &Path, name: &str) -> PathBuf {
-    root.join(name)
+/// Runs `job` and writes its outputs into `dir`; returns the prediction
+/// and `predict.json`'s text.
+pub(super) fn write(dir: &mut OutDir, job: &Job) -> Result<(Prediction, String)> {
+    let (model, draws, motion) = (&job.model, &job.draws, &job.motion);
+    let p = predict(model, draws, motion.dt, &motion.ag, &job.opts)?;
+    let report = Report {
+        hbis_version: env!("CARGO_PKG_VERSION"),
+        command: "predict",
+        model: model.name(),
+        seed: job.seed,
+        source: Source {
+            fit: job.fit.as_ref().map(|p| p.display().to_string()),
+            params: job.params.as_ref().map(|p| p.display().to_string()),
+            fit_seed: job.fit_seed,
+        },
+        motion: MotionInfo {
+            source: motion.source.clone(),
+            dt: motion.dt,
+            samples: motion.ag.len(),
+            duration: motion.duration(),
+            pga: motion.pga(),
+            scale: job.scale,
+        },
+        tail: job.opts.tail,
+        capacity: job.opts.capacity,
+        draws: draws.len(),
+        summary: &p.summary,
+        p_exceed_capacity: p.p_exceed_capacity,
+        extrapolation: &p.extrapolation,
+        warnings: &p.warnings,
+    };
+    let json = serde_json::to_string_pretty(&report)? + "\n";
+    let capacity = job.opts.capacity;
+    dir.write(
+        "draws.csv",
+        draws_csv(model, draws, &p, capacity).as_bytes(),
+    )?;
+    if let Some(b) = &p.band {
+        let mut s = String::from("t,q05,q50,q95\n");
+        for i in 0..b.t.len() {
+            s += &format!("{},{},{},{}\n", b.t[i], b.q05[i], b.q50[i], b.q95[i]);
+        }
+        dir.write("band.csv", s.as_bytes())?;
+    }
+    figures(dir, &p, motion, capacity)?;
+    dir.write("predict.json", json.as_bytes())?;
+    Ok((p, json))
 }
 
 /// Settings refused before any work.
@@ -291,11 +328,17 @@ fn params(model: &Model, path: &Path) -> Result<Vec<f64>> {
     let theta = names
         .iter()
         .map(|n| match obj.get(n) {
-            Some(v) => v
-                .as_f64()
-                .filter(|x| x.is_finite())
-                .with_context(|| format!("{}: parameter `{n}` = {v}: expected a finite number", within())),
-            None => bail!("{}: missing parameter `{n}` of model `{}`", within(), model.name()),
+            Some(v) => v.as_f64().filter(|x| x.is_finite()).with_context(|| {
+                format!(
+                    "{}: parameter `{n}` = {v}: expected a finite number",
+                    within()
+                )
+            }),
+            None => bail!(
+                "{}: missing parameter `{n}` of model `{}`",
+                within(),
+                model.name()
+            ),
         })
         .collect::<Result<Vec<_>>>()?;
     model.check(&theta).with_context(within)?;
@@ -309,7 +352,9 @@ fn draws_csv(model: &Model, draws: &[Draw], p: &Prediction, capacity: Option<f64
     s += ",m,peak_displacement,residual_displacement,peak_base_shear,peak_total_acceleration,peak_base_shear_kN,exceeds_capacity\n";
     let opt = |x: Option<f64>| x.map(|v| v.to_string()).unwrap_or_default();
     for (i, (d, o)) in draws.iter().zip(&p.outcomes).enumerate() {
-        let (chain, row) = d.origin.map_or((String::new(), String::new()), |(c, r)| (c.to_string(), r.to_string()));
+        let (chain, row) = d.origin.map_or((String::new(), String::new()), |(c, r)| {
+            (c.to_string(), r.to_string())
+        });
         let theta: Vec<String> = d.theta.iter().map(f64::to_string).collect();
         let k = &o.peaks;
         s += &format!(
@@ -329,14 +374,23 @@ fn draws_csv(model: &Model, draws: &[Draw], p: &Prediction, capacity: Option<f64
 }
 
 #[cfg(feature = "figures")]
-fn figures(dir: &mut OutDir, p: &Prediction, motion: &GroundMotion, capacity: Option<f64>) -> Result<()> {
+fn figures(
+    dir: &mut OutDir,
+    p: &Prediction,
+    motion: &GroundMotion,
+    capacity: Option<f64>,
+) -> Result<()> {
     use hbis::report::figures;
     if let Some(b) = &p.band {
         dir.write_with("response.png", |tmp| {
             figures::response_band_figure(tmp, b, (motion.dt, &motion.ag), capacity)
         })?;
     }
-    let peaks: Vec<f64> = p.outcomes.iter().map(|o| o.peaks.peak_displacement).collect();
+    let peaks: Vec<f64> = p
+        .outcomes
+        .iter()
+        .map(|o| o.peaks.peak_displacement)
+        .collect();
     dir.write_with("peak-displacement.png", |tmp| {
         figures::peak_displacement_figure(tmp, &peaks, capacity, p.p_exceed_capacity)
     })?;
@@ -348,7 +402,12 @@ fn figures(_: &mut OutDir, _: &Prediction, _: &GroundMotion, _: Option<f64>) -> 
     Ok(())
 }
 
-fn print_summary(out: &mut impl Write, p: &Prediction, n: usize, m: &GroundMotion) -> Result<()> {
+pub(super) fn print_summary(
+    out: &mut impl Write,
+    p: &Prediction,
+    n: usize,
+    m: &GroundMotion,
+) -> Result<()> {
     writeln!(
         out,
         "Response to {} ({:.1} s, PGA {:.3} m/s^2 = {:.3} g), {n} parameter set{}:",
@@ -376,12 +435,22 @@ fn print_summary(out: &mut impl Write, p: &Prediction, n: usize, m: &GroundMotio
     };
     let s = &p.summary;
     row(out, "peak displacement (mm)", &s.peak_displacement, 1e3)?;
-    row(out, "residual displacement (mm)", &s.residual_displacement, 1e3)?;
+    row(
+        out,
+        "residual displacement (mm)",
+        &s.residual_displacement,
+        1e3,
+    )?;
     row(out, "peak base shear / m (m/s^2)", &s.peak_base_shear, 1.0)?;
     if let Some(k) = &s.peak_base_shear_kn {
         row(out, "peak base shear (kN)", k, 1.0)?;
     }
-    row(out, "peak total accel. (m/s^2)", &s.peak_total_acceleration, 1.0)?;
+    row(
+        out,
+        "peak total accel. (m/s^2)",
+        &s.peak_total_acceleration,
+        1.0,
+    )?;
     if let Some(q) = p.p_exceed_capacity {
         writeln!(out, "  P(peak displacement > capacity) = {q:.4}")?;
     }

@@ -431,7 +431,15 @@ impl<'a> Forced<'a> {
         let accel = |u: f64, v: f64, tau: f64| -(2.0 * alpha * v + k * u + c + g + s * tau);
         let (u1, v1) = at(rem);
         let vphase = LinearPhase::new(alpha, k, s);
-        let stop = first_stop(&vphase, d, v0, accel(u0, v0, 0.0), rem, v1, accel(u1, v1, rem));
+        let stop = first_stop(
+            &vphase,
+            d,
+            v0,
+            accel(u0, v0, 0.0),
+            rem,
+            v1,
+            accel(u1, v1, rem),
+        );
         let (t_lim, u_lim) = match stop {
             Some(ts) => (ts, at(ts).0),
             None => (rem, u1),
@@ -469,6 +477,24 @@ impl<'a> Forced<'a> {
             return Err(SimError::Diverged { t: tau, u });
         }
         let g1 = g + s * tau;
+        // The total acceleration's extremum inside the stretch, where its
+        // rate -(2 alpha u'' + K u') changes sign.
+        let w = |u: f64, v: f64, t: f64| 2.0 * alpha * accel(u, v, t) + k * v;
+        let (w0, w1) = (w(u0, v0, 0.0), w(u, v, tau));
+        if w0 * w1 < 0.0 {
+            let te = root(
+                |t| {
+                    let (ut, vt) = at(t);
+                    w(ut, vt, t)
+                },
+                tau,
+                w0,
+                w1,
+            );
+            let (ue, ve) = at(te);
+            let total = accel(ue, ve, te) + g + s * te;
+            self.peaks.note(ue, total, total);
+        }
         let Some((event, x)) = event else {
             st.u = u;
             st.v = v;
@@ -539,7 +565,15 @@ fn sign_of(u: f64, d: f64) -> f64 {
 /// returns to zero, given its phase `vphase` (state `(v, a)`) and the
 /// states at both ends; `None` if it does not. The acceleration changes
 /// sign at most once in the step.
-fn first_stop(vphase: &LinearPhase, d: f64, v0: f64, a0: f64, h: f64, v1: f64, a1: f64) -> Option<f64> {
+fn first_stop(
+    vphase: &LinearPhase,
+    d: f64,
+    v0: f64,
+    a0: f64,
+    h: f64,
+    v1: f64,
+    a1: f64,
+) -> Option<f64> {
     // Just broken away: the acceleration starts at zero; round-off must
     // not make the velocity stop at once.
     let a0 = if v0 == 0.0 && d * a0 < 0.0 { 0.0 } else { a0 };
@@ -552,7 +586,10 @@ fn first_stop(vphase: &LinearPhase, d: f64, v0: f64, a0: f64, h: f64, v1: f64, a
         if d * a0 < 0.0 && d * a1 > 0.0 {
             let (tm, vm) = vphase.reversal(v0, a0, -d)?;
             if tm < h && d * vm <= 0.0 {
-                return time(vphase.time_to_reach(v0, a0, -d, 0.0, tm, Some((vm, 0.0))), 0.0);
+                return time(
+                    vphase.time_to_reach(v0, a0, -d, 0.0, tm, Some((vm, 0.0))),
+                    0.0,
+                );
             }
         }
         return None;
@@ -569,7 +606,10 @@ fn first_stop(vphase: &LinearPhase, d: f64, v0: f64, a0: f64, h: f64, v1: f64, a
     }
     // Rising first, then falling through zero after the extremum.
     let (tm, vm) = vphase.reversal(v0, a0, d).filter(|r| r.0 < h)?;
-    time(vphase.time_to_reach(vm, 0.0, -d, 0.0, h - tm, Some((v1, a1))), tm)
+    time(
+        vphase.time_to_reach(vm, 0.0, -d, 0.0, h - tm, Some((v1, a1))),
+        tm,
+    )
 }
 
 /// When `u` (moving in direction `d` from `u0`, monotonic on `[0, t_hi]`)
@@ -603,4 +643,28 @@ fn reach(at: &impl Fn(f64) -> (f64, f64), d: f64, u0: f64, x: f64, t_hi: f64) ->
         }
     }
     hi
+}
+
+/// The root of `f` in `[0, t_hi]` where it changes sign from `f0` to `f1`:
+/// the Illinois variant of regula falsi, to round-off in `t`.
+fn root(f: impl Fn(f64) -> f64, t_hi: f64, f0: f64, f1: f64) -> f64 {
+    // The bracket is [a, b] in either order, f(a) f(b) < 0.
+    let (mut a, mut fa, mut b, mut fb) = (0.0, f0, t_hi, f1);
+    for _ in 0..100 {
+        let c = (a * fb - b * fa) / (fb - fa);
+        if (b - a).abs() <= 4.0 * f64::EPSILON * t_hi || !c.is_finite() {
+            return c.clamp(0.0, t_hi);
+        }
+        let fc = f(c);
+        if fc == 0.0 {
+            return c;
+        }
+        if fc * fb < 0.0 {
+            (a, fa) = (b, fb);
+        } else {
+            fa *= 0.5;
+        }
+        (b, fb) = (c, fc);
+    }
+    b
 }

@@ -371,7 +371,9 @@ impl NumericSystem<'_> {
             kinks.extend([uz, -uz]);
         }
         kinks.retain(|x| x.is_finite());
-        kinks.truncate(MAX_KINKS);
+        // Two events are kept for the extrema of the velocity and of the
+        // total acceleration.
+        kinks.truncate(MAX_KINKS - 2);
         let sp = self.system.spring();
         let has_slope = self.system.friction().has_slope();
         let ode = Dopri5::new()
@@ -441,22 +443,64 @@ impl NumericSystem<'_> {
                 let b = branch;
                 let (u_s, s_s) = (u, s);
                 let state = |y: &[f64; 2]| kin(y[0], y[1], d, s_s + d * (y[0] - u_s));
-                let rhs = |tt: f64, y: &[f64; 2]| [y[1], self.forces(b, &state(y)).accel() - ag(tt)];
-                let events_fn = |_: f64, y: &[f64; 2], g: &mut [f64]| {
+                let rhs =
+                    |tt: f64, y: &[f64; 2]| [y[1], self.forces(b, &state(y)).accel() - ag(tt)];
+                let extremum = 3 + kinks.len();
+                let events_fn = |tt: f64, y: &[f64; 2], g: &mut [f64]| {
                     g[0] = d * y[1];
                     g[1] = target.map_or(1.0, |(x, _)| d * (x - y[0]));
                     g[2] = if has_slope { y[0] } else { 1.0 };
                     for (gk, x) in g[3..].iter_mut().zip(&kinks) {
                         *gk = y[0] - x;
                     }
+                    // The velocity's extrema: a dip to zero inside one
+                    // step changes no sign at the step's ends.
+                    let total = |y: &[f64; 2]| self.forces(b, &state(y)).accel();
+                    let a = total(y) - ag(tt);
+                    g[extremum] = d * a;
+                    // And the total acceleration's rate along the motion
+                    // (a central difference of the forces; its zero is where
+                    // the base shear peaks between samples).
+                    let h = 1e-6;
+                    let (yp, ym) = (
+                        [y[0] + h * y[1], y[1] + h * a],
+                        [y[0] - h * y[1], y[1] - h * a],
+                    );
+                    g[extremum + 1] = (total(&yp) - total(&ym)) / (2.0 * h);
                 };
                 let v_start = if v * d < 0.0 { 0.0 } else { v };
-                let out = ode
-                    .solve(rhs, t, [u, v_start], t_next, 3 + kinks.len(), events_fn, |_| {})
+                let mut out = ode
+                    .solve(
+                        rhs,
+                        t,
+                        [u, v_start],
+                        t_next,
+                        extremum + 2,
+                        events_fn,
+                        |_| {},
+                    )
                     .map_err(|_| SimError::Diverged { t, u })?;
+                if out.stop == (Stop::Event { index: extremum }) && d * out.y[1] <= 0.0 {
+                    // A minimum of the speed below zero: the stop came
+                    // before it, inside a step. Again up to the minimum,
+                    // where the velocity's sign has changed.
+                    let t_min = out.t;
+                    out = ode
+                        .solve(rhs, t, [u, v_start], t_min, extremum, events_fn, |_| {})
+                        .map_err(|_| SimError::Diverged { t, u })?;
+                    if out.stop == Stop::End {
+                        out.stop = Stop::Event { index: 0 };
+                        out.y[1] = 0.0;
+                    }
+                }
                 if out.stop != Stop::End {
                     // Peaks at the events, as the closed form takes them.
-                    note(&mut peaks, &self.forces(b, &state(&out.y)), out.y[0], ag(out.t));
+                    note(
+                        &mut peaks,
+                        &self.forces(b, &state(&out.y)),
+                        out.y[0],
+                        ag(out.t),
+                    );
                 }
                 t = out.t;
                 [u, v] = out.y;
@@ -540,5 +584,4 @@ impl ForcedPeaks {
         self.shear = self.shear.max(shear.abs());
         self.total = self.total.max(total.abs());
     }
-
 }

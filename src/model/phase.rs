@@ -614,7 +614,10 @@ mod tests {
                 // from the Taylor integration of the unit-force response.
                 let (e, es) = taylor(a, k, -1.0, 0.0, 0.0, t);
                 let lhs = es + 2.0 * a * e + k * g;
-                assert!((lhs - t).abs() < 1e-12 * t.max(1.0), "{a} {k} t={t}: {lhs} vs {t}");
+                assert!(
+                    (lhs - t).abs() < 1e-12 * t.max(1.0),
+                    "{a} {k} t={t}: {lhs} vs {t}"
+                );
                 // And G itself, where K is too small for the identity to
                 // fix it: the series G = t^3/6 - 2 alpha t^4/24 + ... to
                 // first order in the rates.
@@ -628,20 +631,35 @@ mod tests {
     /// `G` is the integral of `E`: Simpson's rule on a fine grid.
     #[test]
     fn ramp_response_is_the_integral_of_the_step_response() {
-        for &(a, k) in &[(0.1, 10.0), (3.0, 1e-4), (40.0, 0.5), (0.2, -0.5), (0.0, 1e-9)] {
+        for &(a, k) in &[
+            (0.1, 10.0),
+            (3.0, 1e-4),
+            (40.0, 0.5),
+            (0.2, -0.5),
+            (0.0, 1e-9),
+        ] {
             let p = LinearPhase::new(a, k, 0.0);
             let t = 1.3;
             let n = 20000;
             let h = t / n as f64;
             let mut sum = 0.0;
             for i in 0..=n {
-                let w = if i == 0 || i == n { 1.0 } else if i % 2 == 1 { 4.0 } else { 2.0 };
+                let w = if i == 0 || i == n {
+                    1.0
+                } else if i % 2 == 1 {
+                    4.0
+                } else {
+                    2.0
+                };
                 let r = i as f64 * h;
                 sum += w * p.basis(r).e;
             }
             let simpson = sum * h / 3.0;
             let g = p.ramp(t, &p.basis(t));
-            assert!((g - simpson).abs() < 1e-12 * g.abs().max(1e-3), "{a} {k}: {g} vs {simpson}");
+            assert!(
+                (g - simpson).abs() < 1e-12 * g.abs().max(1e-3),
+                "{a} {k}: {g} vs {simpson}"
+            );
         }
     }
 

@@ -1013,12 +1013,7 @@ pub fn response_band_figure(
     capacity: Option<f64>,
 ) -> Result<(), FigureError> {
     let ext = checked_extension(path)?;
-    render!(
-        path,
-        &ext,
-        (1400, 900),
-        draw_band(band, motion, capacity)
-    )
+    render!(path, &ext, (1400, 900), draw_band(band, motion, capacity))
 }
 
 fn draw_band<DB: DrawingBackend>(
@@ -1030,12 +1025,21 @@ fn draw_band<DB: DrawingBackend>(
     let e = |x: DrawingAreaErrorKind<DB::ErrorType>| x.to_string();
     root.fill(&WHITE).map_err(e)?;
     let root = root
-        .titled("Posterior predictive response to the ground motion", (FONT, 26))
+        .titled(
+            "Posterior predictive response to the ground motion",
+            (FONT, 26),
+        )
         .map_err(e)?;
     let (top, bottom) = root.split_vertically(root.dim_in_pixel().1 * 2 / 3);
     let t1 = band.t.last().copied().unwrap_or(1.0).max(dt);
     let cap = capacity.into_iter().flat_map(|c| [c, -c]);
-    let ys = range(band.q05.iter().chain(&band.q95).map(|v| 1e3 * v).chain(cap.map(|c| 1e3 * c)));
+    let ys = range(
+        band.q05
+            .iter()
+            .chain(&band.q95)
+            .map(|v| 1e3 * v)
+            .chain(cap.map(|c| 1e3 * c)),
+    );
     let mut chart = ChartBuilder::on(&top)
         .margin(20)
         .x_label_area_size(40)
@@ -1052,8 +1056,19 @@ fn draw_band<DB: DrawingBackend>(
         .draw()
         .map_err(e)?;
     let blue = RGBColor(31, 119, 180);
-    let upper: Vec<(f64, f64)> = band.t.iter().zip(&band.q95).map(|(t, v)| (*t, 1e3 * v)).collect();
-    let lower: Vec<(f64, f64)> = band.t.iter().zip(&band.q05).map(|(t, v)| (*t, 1e3 * v)).rev().collect();
+    let upper: Vec<(f64, f64)> = band
+        .t
+        .iter()
+        .zip(&band.q95)
+        .map(|(t, v)| (*t, 1e3 * v))
+        .collect();
+    let lower: Vec<(f64, f64)> = band
+        .t
+        .iter()
+        .zip(&band.q05)
+        .map(|(t, v)| (*t, 1e3 * v))
+        .rev()
+        .collect();
     chart
         .draw_series(std::iter::once(Polygon::new(
             upper.iter().chain(&lower).copied().collect::<Vec<_>>(),
@@ -1061,7 +1076,9 @@ fn draw_band<DB: DrawingBackend>(
         )))
         .map_err(e)?
         .label("5-95 % of the draws")
-        .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 20, y + 5)], blue.mix(0.25).filled()));
+        .legend(move |(x, y)| {
+            Rectangle::new([(x, y - 5), (x + 20, y + 5)], blue.mix(0.25).filled())
+        });
     chart
         .draw_series(LineSeries::new(
             band.t.iter().zip(&band.q50).map(|(t, v)| (*t, 1e3 * v)),

@@ -204,8 +204,89 @@ fn demo_runs_on_the_embedded_default() {
     assert!(out.contains("residual displacement: 3.04 mm"), "{out}");
     assert!(out.contains("m  =     1333.1 t"), "{out}");
     assert!(d.path().join("demo/test5.csv").exists());
+    earthquake_quantiles_match_a_brute_force_loop(&d.path().join("demo/predict"));
     if cfg!(feature = "figures") {
         let png = std::fs::metadata(d.path().join("demo/test5.png")).unwrap();
         assert!(png.len() > 10_000);
+    }
+}
+
+/// The demo's `hbis predict` step against a brute-force loop over the same
+/// draws (from its draws.csv) through the numerical engine: per draw and
+/// in the quantiles of predict.json.
+fn earthquake_quantiles_match_a_brute_force_loop(dir: &Path) {
+    use hbis::data::ground_motion::KanaiTajimi;
+    use hbis::model::forced::Excitation;
+    use rayon::prelude::*;
+
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("predict.json")).unwrap()).unwrap();
+    for key in [
+        "peak_displacement",
+        "residual_displacement",
+        "peak_base_shear",
+        "peak_total_acceleration",
+    ] {
+        for s in ["mean", "sd", "q05", "q50", "q95"] {
+            assert!(json["summary"][key][s].is_f64(), "summary.{key}.{s}");
+        }
+    }
+    assert!(json["p_exceed_capacity"].is_f64() && json["warnings"].is_array());
+    let csv = std::fs::read_to_string(dir.join("draws.csv")).unwrap();
+    let mut lines = csv.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let model = hbis::model::Registry::builtin()
+        .parse(json["model"].as_str().unwrap())
+        .unwrap();
+    let names = hbis::model::ForwardModel::param_names(&model);
+    let col = |n: &str| header.iter().position(|h| *h == n).unwrap();
+    let idx: Vec<usize> = names.iter().map(|n| col(n)).collect();
+    let peak = col("peak_displacement");
+    let rows: Vec<Vec<f64>> = lines
+        .map(|l| {
+            l.split(',')
+                .map(|x| x.parse().unwrap_or(f64::NAN))
+                .collect()
+        })
+        .collect();
+    assert_eq!(rows.len(), json["draws"].as_u64().unwrap() as usize);
+    // The demo's motion: the default Kanai-Tajimi motion of seed 2026.
+    let motion = KanaiTajimi::default().generate(2026).unwrap();
+    let ex = Excitation::new(motion.dt, &motion.ag, 20.0).unwrap();
+    let brute: Vec<f64> = rows
+        .par_iter()
+        .map(|r| {
+            let theta: Vec<f64> = idx.iter().map(|&k| r[k]).collect();
+            model
+                .forced_numerically(&theta, &ex, 1e-12, &mut ())
+                .unwrap()
+                .peak_displacement
+        })
+        .collect();
+    for (r, b) in rows.iter().zip(&brute) {
+        assert!(
+            (r[peak] - b).abs() < 1e-7,
+            "draw {}: {} vs {b}",
+            r[0],
+            r[peak]
+        );
+    }
+    let mut sorted = brute.clone();
+    sorted.sort_by(f64::total_cmp);
+    let q = |p: f64| {
+        let h = (sorted.len() - 1) as f64 * p;
+        let lo = h.floor() as usize;
+        let hi = (lo + 1).min(sorted.len() - 1);
+        sorted[lo] + (h - lo as f64) * (sorted[hi] - sorted[lo])
+    };
+    for (name, p) in [("q05", 0.05), ("q50", 0.5), ("q95", 0.95)] {
+        let v = json["summary"]["peak_displacement"][name].as_f64().unwrap();
+        assert!((v - q(p)).abs() < 1e-7, "{name}: {v} vs {}", q(p));
+    }
+    for f in ["response.png", "peak-displacement.png", "band.csv"] {
+        if f.ends_with(".png") && !cfg!(feature = "figures") {
+            continue;
+        }
+        assert!(std::fs::metadata(dir.join(f)).unwrap().len() > 1000, "{f}");
     }
 }

@@ -1,0 +1,165 @@
+//! `hbis predict` through the real binary: one parameter set, motions from
+//! files, the documented keys, and bad input refused with exit code 2.
+
+use crate::bin;
+
+use bin::{hbis, stderr};
+
+use std::path::Path;
+
+const TEST5: &str = r#"{"u0": 0.1166, "uy": 0.01167, "uF0": 0.00234, "rF0": 0.00235, "zeta0": 0.02256,
+ "f0": 0.53979, "f1": 0.41723, "f2": 0.37477, "u3": 0.08252}"#;
+
+fn write(dir: &Path, name: &str, text: &str) {
+    std::fs::write(dir.join(name), text).unwrap();
+}
+
+/// An AT2 file of a 2 Hz sine pulse train, 10 s at 100 Hz, in g.
+fn at2() -> String {
+    let n = 1001;
+    let mut s = String::from(
+        "PEER NGA STRONG MOTION DATABASE RECORD\\nsynthetic sine, hbis test\\nACCELERATION TIME SERIES IN UNITS OF G\\n",
+    )
+    .replace("\\n", "\n");
+    s += &format!("NPTS= {n}, DT= .0100 SEC\n");
+    for i in 0..n {
+        let t = i as f64 * 0.01;
+        let a = if t < 5.0 {
+            0.2 * (2.0 * std::f64::consts::PI * 0.5 * t).sin()
+        } else {
+            0.0
+        };
+        s += &format!("{a:.7E}");
+        s += if i % 5 == 4 { "\n" } else { " " };
+    }
+    s + "\n"
+}
+
+#[test]
+fn one_parameter_set_under_an_at2_motion_and_the_same_in_columns() {
+    let d = tempfile::tempdir().unwrap();
+    write(d.path(), "p.json", TEST5);
+    write(d.path(), "gm.AT2", &at2());
+    let o = hbis(
+        d.path(),
+        &[
+            "predict",
+            "--model",
+            "trilinear+lcfm+viscous",
+            "--params",
+            "p.json",
+            "--motion",
+            "gm.AT2",
+            "--capacity",
+            "0.05",
+            "--tail",
+            "10",
+            "--json",
+            "--out",
+            "pred",
+        ],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let j: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(j["draws"], 1);
+    for key in [
+        "peak_displacement",
+        "residual_displacement",
+        "peak_base_shear",
+        "peak_total_acceleration",
+    ] {
+        let s = &j["summary"][key];
+        let v = s["mean"].as_f64().unwrap();
+        assert!(v.is_finite() && v >= 0.0, "{key}");
+        assert_eq!(s["q05"], s["mean"], "{key}");
+        assert_eq!(s["q50"], s["mean"]);
+        assert_eq!(s["q95"], s["mean"]);
+        assert_eq!(s["sd"], 0.0);
+    }
+    let peak = j["summary"]["peak_displacement"]["mean"].as_f64().unwrap();
+    let p = j["p_exceed_capacity"].as_f64().unwrap();
+    assert_eq!(p, if peak > 0.05 { 1.0 } else { 0.0 });
+    assert!((j["motion"]["pga"].as_f64().unwrap() - 0.2 * 9.80665).abs() < 1e-3);
+    assert!(d.path().join("pred/draws.csv").exists());
+
+    // The same motion as two columns in m/s^2, scaled back from g.
+    let mut cols = String::from("t,ag\n");
+    let text = at2();
+    let values: Vec<f64> = text
+        .lines()
+        .skip(4)
+        .flat_map(|l| l.split_whitespace().map(|x| x.parse::<f64>().unwrap()))
+        .collect();
+    for (i, a) in values.iter().enumerate() {
+        cols += &format!("{},{}\n", i as f64 * 0.01, a);
+    }
+    write(d.path(), "gm.csv", &cols);
+    let o = hbis(
+        d.path(),
+        &[
+            "predict",
+            "--model",
+            "trilinear+lcfm+viscous",
+            "--params",
+            "p.json",
+            "--motion",
+            "gm.csv",
+            "--motion-units",
+            "m/s2",
+            "--scale",
+            "9.80665",
+            "--tail",
+            "10",
+            "--json",
+            "--out",
+            "pred2",
+        ],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let k: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let peak2 = k["summary"]["peak_displacement"]["mean"].as_f64().unwrap();
+    assert!(
+        (peak - peak2).abs() < 1e-12 * peak.max(1.0),
+        "{peak} {peak2}"
+    );
+}
+
+#[test]
+fn bad_predict_input_exits_2_naming_what_is_wrong() {
+    let d = tempfile::tempdir().unwrap();
+    write(d.path(), "p.json", TEST5);
+    write(d.path(), "gm.csv", "t,ag\n0,0.1\n0.01,0.2\n0.02,0.1\n");
+    write(d.path(), "bad.csv", "t,ag\n0,0.1\n0.01,zz\n");
+    write(d.path(), "extra.json", &TEST5.replace("\"u3\"", "\"u4\""));
+    let base = ["predict", "--model", "trilinear+lcfm+viscous", "--params"];
+    let cases: Vec<(Vec<&str>, &str)> = vec![
+        (vec!["p.json", "--motion", "gm.csv"], "--motion-units"),
+        (
+            vec!["p.json", "--motion", "bad.csv", "--motion-units", "g"],
+            "line 3",
+        ),
+        (
+            vec!["extra.json", "--motion", "gm.csv", "--motion-units", "g"],
+            "u4",
+        ),
+        (
+            vec!["p.json", "--motion", "gm.csv", "--motion-units", "furlongs"],
+            "--motion-units",
+        ),
+        (
+            vec!["p.json", "--synthetic", "--capacity", "-1"],
+            "--capacity",
+        ),
+        (vec!["p.json", "--motion", "missing.AT2"], "missing.AT2"),
+    ];
+    for (rest, needle) in cases {
+        let args: Vec<&str> = base.iter().copied().chain(rest.iter().copied()).collect();
+        let o = hbis(d.path(), &args);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {}", stderr(&o));
+        assert!(stderr(&o).contains(needle), "{args:?}: {}", stderr(&o));
+        assert!(!stderr(&o).contains("panicked"));
+    }
+    let o = hbis(d.path(), &["predict", "--fit", "nowhere", "--synthetic"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("nowhere"), "{}", stderr(&o));
+}
