@@ -220,6 +220,28 @@ class Fit:
             },
         )
 
+    def predict(
+        self,
+        ag: Sequence[float],
+        dt: float,
+        draws: int = 1000,
+        tail: float = 20.0,
+        capacity: Optional[float] = None,
+    ) -> "Prediction":
+        """The posterior's response to a ground motion (as ``hbis predict``):
+        ``draws`` draws evenly spaced through the chains, each simulated from
+        rest under ``ag`` (m/s^2, step ``dt``) and ``tail`` seconds after; the
+        base shear also in kN when the fit was given forces."""
+        if self.posterior is None:
+            raise ValueError("predict(): a MAP-only fit has no posterior draws")
+        pooled = self.posterior.reshape(-1, self.posterior.shape[-1])
+        n = pooled.shape[0]
+        idx = [i * n // draws for i in range(draws)] if draws < n else list(range(n))
+        masses = None
+        if self._raw.physical is not None:
+            masses = list(self._raw.physical.reshape(-1, len(PHYSICAL))[idx, 0])
+        return _predict(self.report["model"], pooled[idx], ag, dt, tail, capacity, masses)
+
     def __repr__(self) -> str:
         conv = self.converged
         state = "MAP only" if conv is None else ("converged" if conv else "NOT converged")
@@ -311,17 +333,104 @@ def ladder(
     )
 
 
+class Prediction:
+    """The response to a ground motion of one or many parameter sets.
+
+    Attributes
+    ----------
+    summary : dict
+        ``peak_displacement``, ``residual_displacement``, ``peak_base_shear``
+        (per unit mass), ``peak_total_acceleration`` (and ``peak_base_shear_kn``
+        with masses), each ``{mean, sd, q05, q50, q95}``, as ``predict.json``.
+    p_exceed_capacity : float or None
+        Share of the draws whose peak displacement exceeds the capacity.
+    per_draw : numpy.ndarray
+        ``(draws, 4)``: the four quantities per draw, in the order of :attr:`COLUMNS`.
+    warnings : list of str
+        Extrapolation beyond the release test, floored friction, units.
+    """
+
+    COLUMNS = ["peak_displacement", "residual_displacement", "peak_base_shear", "peak_total_acceleration"]
+
+    def __init__(self, per_draw: np.ndarray, report: Dict[str, Any]):
+        self.per_draw = per_draw
+        self.report = report
+        self.summary: Dict[str, Dict[str, float]] = report["summary"]
+        self.p_exceed_capacity: Optional[float] = report["p_exceed_capacity"]
+        self.extrapolation: Dict[str, float] = report["extrapolation"]
+        self.warnings: List[str] = list(report["warnings"])
+
+    def to_dataframe(self):
+        """The per-draw quantities as a pandas DataFrame."""
+        import pandas as pd
+
+        return pd.DataFrame(self.per_draw, columns=self.COLUMNS)
+
+    def __repr__(self) -> str:
+        d = self.summary["peak_displacement"]
+        return f"Prediction({self.per_draw.shape[0]} draws, peak displacement median {d['q50']:.4g} m)"
+
+
+def _predict(model, thetas, ag, dt, tail, capacity, masses) -> Prediction:
+    rows = [list(map(float, t)) for t in np.atleast_2d(np.asarray(thetas, dtype=float))]
+    ag = np.ascontiguousarray(ag, dtype=float)
+    per_draw, text = _hbis.predict(model, rows, float(dt), ag, float(tail), capacity, masses)
+    return Prediction(per_draw, json.loads(text))
+
+
+def predict(
+    params: Dict[str, float],
+    ag: Sequence[float],
+    dt: float,
+    model: str = DEFAULT_MODEL,
+    tail: float = 20.0,
+    capacity: Optional[float] = None,
+    mass: Optional[float] = None,
+) -> Prediction:
+    """One parameter set's response to a ground motion ``ag`` (m/s^2, step
+    ``dt``) from rest, ``tail`` seconds after it ends (``hbis predict --model
+    --params``). For a fitted posterior use :meth:`Fit.predict`."""
+    names = param_names(model)
+    extra = sorted(set(params) - set(names))
+    if extra:
+        raise ValueError(f"params: {extra[0]!r} is not a parameter of {model} (its parameters: {', '.join(names)})")
+    missing = [n for n in names if n not in params]
+    if missing:
+        raise ValueError(f"params: {missing[0]!r} is missing (the parameters of {model}: {', '.join(names)})")
+    theta = [[float(params[n]) for n in names]]
+    return _predict(model, theta, ag, dt, tail, capacity, None if mass is None else [float(mass)])
+
+
+def ground_motion(
+    seed: int = 1, pga: float = 0.3 * 9.80665, duration: float = 40.0, dt: float = 0.01
+) -> Tuple[np.ndarray, np.ndarray]:
+    """A synthetic Kanai-Tajimi motion (firm soil), seeded: ``(t, ag)`` in s, m/s^2."""
+    ag = _hbis.kanai_tajimi(int(seed), float(pga), float(duration), float(dt))
+    return np.arange(len(ag)) * dt, ag
+
+
+def read_motion(path: str, units: Optional[str] = None) -> Tuple[np.ndarray, np.ndarray]:
+    """A PEER ``.AT2`` file (its unit from the header) or two columns ``t ag``
+    (``units`` = ``'g'``, ``'m/s2'`` or ``'mm/s2'`` required): ``(t, ag)`` in s, m/s^2."""
+    dt, ag = _hbis.read_motion(str(path), units)
+    return np.arange(len(ag)) * dt, ag
+
+
 __all__ = [
     "DEFAULT_MODEL",
     "PHYSICAL",
     "PHYSICAL_UNITS",
     "Fit",
+    "Prediction",
     "Record",
     "Synthetic",
     "diagnose",
     "fit",
+    "ground_motion",
     "ladder",
     "param_names",
+    "predict",
+    "read_motion",
     "simulate",
     "synthesize",
     "table_8_1",

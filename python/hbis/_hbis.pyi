@@ -67,3 +67,16 @@ def ladder(
     max_steps: int = 6,
     progress: Optional[Callable[[int, str], None]] = None,
 ) -> str: ...
+def kanai_tajimi(
+    seed: int, pga: float = ..., duration: float = 40.0, dt: float = 0.01, f_g: float = 2.5, zeta_g: float = 0.6
+) -> Array: ...
+def read_motion(path: str, units: Optional[str] = None) -> Tuple[float, Array]: ...
+def predict(
+    model: str,
+    thetas: List[List[float]],
+    dt: float,
+    ag: Array,
+    tail: float = 20.0,
+    capacity: Optional[float] = None,
+    masses: Optional[List[float]] = None,
+) -> Tuple[Array, str]: ...

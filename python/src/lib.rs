@@ -19,8 +19,8 @@ use hbis::inference::{Noise, Posterior};
 use hbis::model::{ForwardModel, Model, Params, Registry, Response, SimOptions};
 use hbis::report::json::{DataInfo, FitReport};
 use hbis::study::{fit_record, FitOptions};
-use numpy::ndarray::Array3;
-use numpy::{IntoPyArray, PyArray1, PyArray3, PyReadonlyArray1};
+use numpy::ndarray::{Array2, Array3};
+use numpy::{IntoPyArray, PyArray1, PyArray2, PyArray3, PyReadonlyArray1};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use rand::{rngs::StdRng, SeedableRng};
@@ -581,6 +581,140 @@ fn ladder(
     })
 }
 
+/// A synthetic Kanai-Tajimi ground motion (firm soil by default) of
+/// `seed`, scaled to `pga` (m/s^2): the ground acceleration at `i dt`.
+#[pyfunction]
+#[pyo3(signature = (seed, pga = 0.3 * 9.80665, duration = 40.0, dt = 0.01, f_g = 2.5, zeta_g = 0.6))]
+fn kanai_tajimi<'py>(
+    py: Python<'py>,
+    seed: u64,
+    pga: f64,
+    duration: f64,
+    dt: f64,
+    f_g: f64,
+    zeta_g: f64,
+) -> PyResult<Bound<'py, PyArray1<f64>>> {
+    let kt = hbis::data::ground_motion::KanaiTajimi {
+        pga,
+        duration,
+        dt,
+        f_g,
+        zeta_g,
+        ..Default::default()
+    };
+    Ok(kt.generate(seed).map_err(err)?.ag.into_pyarray(py))
+}
+
+/// Reads a ground motion: PEER `.AT2` (unit from its header unless
+/// `units` is given) or two columns `t ag` (`units` required). Returns
+/// `(dt, ag)` with `ag` in m/s^2.
+#[pyfunction]
+#[pyo3(signature = (path, units = None))]
+fn read_motion<'py>(
+    py: Python<'py>,
+    path: &str,
+    units: Option<&str>,
+) -> PyResult<(f64, Bound<'py, PyArray1<f64>>)> {
+    use hbis::data::ground_motion::GroundMotion;
+    use hbis::data::validation::AccelUnits;
+    let units = units
+        .map(|u| {
+            u.parse::<AccelUnits>()
+                .map_err(|e| value_error(format!("units `{u}`: {}", chain(&e))))
+        })
+        .transpose()?;
+    let p = std::path::Path::new(path);
+    let m = if p.extension().is_some_and(|e| e.eq_ignore_ascii_case("at2")) {
+        GroundMotion::read_at2(p, units)
+    } else {
+        let u = units.ok_or_else(|| {
+            value_error(format!(
+                "{path}: state the unit of a two-column motion: units='g', 'm/s2' or 'mm/s2'"
+            ))
+        })?;
+        GroundMotion::read_columns(p, u)
+    }
+    .map_err(err)?;
+    Ok((m.dt, m.ag.into_pyarray(py)))
+}
+
+/// Each parameter set (rows of `thetas`, in the model's order) under the
+/// ground acceleration `ag` (m/s^2, step `dt`) from rest, `tail` seconds
+/// after: per set `(peak_displacement, residual_displacement,
+/// peak_base_shear, peak_total_acceleration)` as an `(n, 4)` array, and
+/// the summary as `predict.json` holds it (JSON text).
+#[pyfunction]
+#[pyo3(signature = (model, thetas, dt, ag, tail = 20.0, capacity = None, masses = None))]
+#[allow(clippy::too_many_arguments)]
+fn predict<'py>(
+    py: Python<'py>,
+    model: &str,
+    thetas: Vec<Vec<f64>>,
+    dt: f64,
+    ag: PyReadonlyArray1<'py, f64>,
+    tail: f64,
+    capacity: Option<f64>,
+    masses: Option<Vec<f64>>,
+) -> PyResult<(Bound<'py, PyArray2<f64>>, String)> {
+    let m = parse_model(model)?;
+    let width = m.layout().names().len();
+    if let Some(bad) = thetas.iter().position(|t| t.len() != width) {
+        return Err(value_error(format!(
+            "thetas row {bad}: {} values, the model {} has {width} parameters ({})",
+            thetas[bad].len(),
+            m.name(),
+            m.layout().names().join(", ")
+        )));
+    }
+    if let Some(ms) = &masses {
+        if ms.len() != thetas.len() {
+            return Err(value_error(format!(
+                "masses: {} values for {} parameter sets",
+                ms.len(),
+                thetas.len()
+            )));
+        }
+    }
+    for (i, t) in thetas.iter().enumerate() {
+        m.check(t)
+            .map_err(|e| value_error(format!("thetas row {i}: {}", chain(&e))))?;
+    }
+    let ag = ag.as_slice()?.to_vec();
+    let draws: Vec<hbis::predict::Draw> = thetas
+        .into_iter()
+        .enumerate()
+        .map(|(i, theta)| hbis::predict::Draw {
+            theta,
+            mass: masses.as_ref().map(|ms| ms[i]),
+            origin: None,
+        })
+        .collect();
+    let opts = hbis::predict::PredictOptions {
+        tail,
+        capacity,
+        band_points: 0,
+    };
+    let p = py
+        .detach(|| hbis::predict::predict(&m, &draws, dt, &ag, &opts))
+        .map_err(err)?;
+    let mut rows = Array2::<f64>::zeros((p.outcomes.len(), 4));
+    for (i, o) in p.outcomes.iter().enumerate() {
+        let k = &o.peaks;
+        rows[[i, 0]] = k.peak_displacement;
+        rows[[i, 1]] = k.residual_displacement;
+        rows[[i, 2]] = k.peak_base_shear;
+        rows[[i, 3]] = k.peak_total_acceleration;
+    }
+    let json = serde_json::json!({
+        "draws": draws.len(),
+        "summary": p.summary,
+        "p_exceed_capacity": p.p_exceed_capacity,
+        "extrapolation": p.extrapolation,
+        "warnings": p.warnings,
+    });
+    Ok((rows.into_pyarray(py), json.to_string()))
+}
+
 /// The compiled part of the `hbis` package.
 #[pymodule]
 fn _hbis(m: &Bound<'_, PyModule>) -> PyResult<()> {
@@ -594,6 +728,9 @@ fn _hbis(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(fit, m)?)?;
     m.add_function(wrap_pyfunction!(diagnose, m)?)?;
     m.add_function(wrap_pyfunction!(ladder, m)?)?;
+    m.add_function(wrap_pyfunction!(kanai_tajimi, m)?)?;
+    m.add_function(wrap_pyfunction!(read_motion, m)?)?;
+    m.add_function(wrap_pyfunction!(predict, m)?)?;
     m.add_class::<FitResult>()?;
     Ok(())
 }

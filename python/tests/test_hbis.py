@@ -262,3 +262,41 @@ def test_the_uq_study_notebook_runs_and_its_output_holds(tmp_path):
     assert rhat <= 1.01, o.stdout
     assert (tmp_path / "forest.png").stat().st_size > 10_000
     assert len((tmp_path / "summary.csv").read_text().splitlines()) == 1 + 45
+
+
+def test_predict_gives_the_binarys_numbers(fitted, cli_fit, tmp_path):
+    o = run(
+        ["predict", "--fit", str(cli_fit), "--synthetic", "--seed", "5", "--pga", "2.0", "--draws", "200",
+         "--tail", "10", "--capacity", "0.1", "--json", "--out", "pred"],
+        tmp_path,
+    )
+    assert o.returncode == 0, o.stderr
+    cli = json.loads(o.stdout)
+    # The CLI's synthetic motion: Kanai-Tajimi, 40 s at 100 Hz, seed 5.
+    t, ag = hbis.ground_motion(seed=5, pga=2.0)
+    assert t[1] == pytest.approx(0.01) and np.max(np.abs(ag)) == pytest.approx(2.0)
+    p = fitted.predict(ag, 0.01, draws=200, tail=10.0, capacity=0.1)
+    for key in hbis.Prediction.COLUMNS + ["peak_base_shear_kn"]:
+        for s in ["mean", "sd", "q05", "q50", "q95"]:
+            assert p.summary[key][s] == pytest.approx(cli["summary"][key][s], rel=1e-12), (key, s)
+    assert p.p_exceed_capacity == cli["p_exceed_capacity"]
+    assert p.per_draw.shape == (200, 4)
+    df = p.to_dataframe()
+    assert list(df.columns) == hbis.Prediction.COLUMNS
+    assert df["peak_displacement"].quantile(0.5) == pytest.approx(p.summary["peak_displacement"]["q50"])
+
+
+def test_predict_one_parameter_set_and_bad_input(tmp_path):
+    t, ag = hbis.ground_motion(seed=2, duration=10.0)
+    p = hbis.predict(hbis.table_8_1(5), ag, 0.01, tail=5.0)
+    d = p.summary["peak_displacement"]
+    assert d["sd"] == 0.0 and d["q05"] == d["mean"] == d["q95"] > 0.0
+    (tmp_path / "gm.csv").write_text("t,ag\n0,0.0\n0.01,0.1\n0.02,0.0\n")
+    tt, a = hbis.read_motion(str(tmp_path / "gm.csv"), units="g")
+    assert a[1] == pytest.approx(0.980665)
+    with pytest.raises(ValueError, match="units='g'"):
+        hbis.read_motion(str(tmp_path / "gm.csv"))
+    with pytest.raises(ValueError, match="'u3' is missing"):
+        hbis.predict({k: v for k, v in hbis.table_8_1(5).items() if k != "u3"}, ag, 0.01)
+    with pytest.raises(ValueError, match="tail"):
+        hbis.predict(hbis.table_8_1(5), ag, 0.01, tail=-1.0)
