@@ -410,10 +410,8 @@ pub(super) fn print_summary(
 ) -> Result<()> {
     writeln!(
         out,
-        "Response to {} ({:.1} s, PGA {:.3} m/s^2 = {:.3} g), {n} parameter set{}:",
+        "Response to {} (PGA {:.3} g), {n} parameter set{}, each from rest:",
         m.source,
-        m.duration(),
-        m.pga(),
         m.pga() / 9.80665,
         if n == 1 { "" } else { "s" }
     )?;
