@@ -187,6 +187,13 @@ pub struct Extrapolation {
     pub max_ratio_to_release: f64,
     /// Median of that ratio.
     pub median_ratio_to_release: f64,
+    /// Share of draws whose response entered an envelope branch (plastic
+    /// phase) deeper than any their release test reached (its free
+    /// vibration from `u0`, simulated for each draw).
+    pub share_new_branch: f64,
+    /// The deepest envelope branch any draw entered (0 elastic, 1-3 the
+    /// paper's plastic phases).
+    pub deepest_branch: u8,
     /// Share of draws whose friction amplitude `F_F0 + k_F |u|` fell to
     /// zero (floored there).
     pub share_friction_floored: f64,
@@ -382,13 +389,55 @@ fn extrapolation(
     ratios.sort_unstable_by(f64::total_cmp);
     let beyond = ratios.iter().filter(|&&r| r > 1.0).count() as f64;
     let floored = outcomes.iter().filter(|o| o.peaks.friction_floored).count() as f64;
+    let new_branch = draws
+        .par_iter()
+        .zip(outcomes)
+        .filter(|(d, o)| {
+            release_deepest(model, &d.theta).is_some_and(|r| o.peaks.deepest_branch > r)
+        })
+        .count() as f64;
     Extrapolation {
         share_beyond_release: beyond / n,
         max_ratio_to_release: ratios.last().copied().unwrap_or(f64::NAN),
         median_ratio_to_release: quantile(&ratios, 0.5),
+        share_new_branch: new_branch / n,
+        deepest_branch: outcomes
+            .iter()
+            .map(|o| o.peaks.deepest_branch)
+            .max()
+            .unwrap_or(0),
         share_friction_floored: floored / n,
         share_still_moving: moving as f64 / n,
     }
+}
+
+/// The deepest envelope branch the release test of `theta` reaches (the
+/// loading to `u0`, then its free vibration until rest, at most 600 s);
+/// `None` if it cannot be simulated.
+fn release_deepest(model: &Model, theta: &[f64]) -> Option<u8> {
+    use crate::model::SpringKind;
+    let p = model.core_params(theta).ok()?;
+    // The imposed displacement loads the virgin curve up to u0 first.
+    let loading = match model.spec().spring {
+        SpringKind::Trilinear if p.u0.abs() > p.u3 => 3,
+        SpringKind::Trilinear | SpringKind::Bilinear if p.u0.abs() > p.uy => 2,
+        _ => 0,
+    };
+    let system = model.system(theta).ok()?;
+    let mut phases: Vec<crate::model::Phase> = Vec::new();
+    system
+        .run(600.0, &crate::model::SimOptions::default(), &mut phases)
+        .ok()?;
+    phases
+        .iter()
+        .map(|p| match p.kind {
+            crate::model::PhaseKind::Plastic1 => 1,
+            crate::model::PhaseKind::Plastic2 => 2,
+            crate::model::PhaseKind::Plastic3 => 3,
+            _ => 0,
+        })
+        .chain([loading])
+        .max()
 }
 
 /// Sentences, each printed only when its number says so.
@@ -402,6 +451,14 @@ fn warnings(x: &Extrapolation, ag: &[f64]) -> Vec<String> {
             100.0 * x.share_beyond_release,
             x.median_ratio_to_release,
             x.max_ratio_to_release
+        ));
+    }
+    if x.share_new_branch > 0.0 {
+        w.push(format!(
+            "{:.1} % of the draws drive the spring onto an envelope branch their release test never reached \
+             (deepest: plastic phase {}): its slope there is the prior's and the other branches' guess, not measured",
+            100.0 * x.share_new_branch,
+            x.deepest_branch
         ));
     }
     if x.share_friction_floored > 0.0 {
@@ -577,4 +634,79 @@ fn read_chain(
         });
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::Params;
+
+    fn shake(pga: f64) -> Vec<f64> {
+        let kt = crate::data::ground_motion::KanaiTajimi {
+            pga,
+            duration: 15.0,
+            ..Default::default()
+        };
+        kt.generate(3).unwrap().ag
+    }
+
+    /// A release from below `u3` never reaches plastic phase 3; a strong
+    /// motion does: the share and the sentence say so. A falling friction
+    /// is floored and reported; a gentle motion warns of neither.
+    #[test]
+    fn extrapolation_is_measured_and_reported() {
+        let model = Registry::builtin().parse("trilinear+lcfm+viscous").unwrap();
+        let mut p = Params::table_8_1(5).unwrap();
+        p.u0 = 0.04; // below u3 = 0.0825
+        p.rf0 = -0.05; // amplitude zero at |u| = 0.0468 m
+        let theta = model.theta_from_params(&p, &[]).unwrap();
+        let draws = vec![Draw::new(theta.clone()), Draw::new(theta)];
+        let opts = PredictOptions::default();
+        let strong = predict(&model, &draws, 0.01, &shake(5.0), &opts).unwrap();
+        let x = &strong.extrapolation;
+        assert_eq!(x.deepest_branch, 3, "{x:?}");
+        assert_eq!(x.share_new_branch, 1.0);
+        assert_eq!(x.share_friction_floored, 1.0);
+        assert!(x.share_beyond_release == 1.0 && x.median_ratio_to_release > 1.0);
+        let text = strong.warnings.join("\n");
+        assert!(
+            text.contains("100.0 % of the draws drive the spring onto an envelope branch"),
+            "{text}"
+        );
+        assert!(text.contains("floored at zero"), "{text}");
+        let gentle = predict(&model, &draws, 0.01, &shake(0.2), &opts).unwrap();
+        let y = &gentle.extrapolation;
+        assert!(
+            y.share_new_branch == 0.0 && y.share_friction_floored == 0.0,
+            "{y:?}"
+        );
+        assert!(gentle
+            .warnings
+            .iter()
+            .all(|w| !w.contains("envelope branch")));
+    }
+
+    #[test]
+    fn capacity_and_mass_are_applied_per_draw() {
+        let model = Registry::builtin().parse("bilinear+coulomb").unwrap();
+        let p = Params::table_8_1(5).unwrap();
+        let theta = model.theta_from_params(&p, &[]).unwrap();
+        let mut a = Draw::new(theta.clone());
+        a.mass = Some(1000.0);
+        let mut b = Draw::new(theta);
+        b.mass = Some(2000.0);
+        let ag = shake(3.0);
+        let one = predict(&model, &[a.clone()], 0.01, &ag, &PredictOptions::default()).unwrap();
+        let peak = one.summary.peak_displacement.mean;
+        let opts = PredictOptions {
+            capacity: Some(peak * 0.999),
+            ..Default::default()
+        };
+        let two = predict(&model, &[a, b], 0.01, &ag, &opts).unwrap();
+        assert_eq!(two.p_exceed_capacity, Some(1.0));
+        let kn = two.summary.peak_base_shear_kn.unwrap();
+        let shear = two.summary.peak_base_shear.mean;
+        assert!((kn.mean - 1500.0 * shear).abs() < 1e-9 * kn.mean);
+        assert!(predict(&model, &[], 0.01, &ag, &opts).is_err());
+    }
 }
