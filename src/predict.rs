@@ -300,7 +300,7 @@ pub fn predict(
         )));
     }
     let ex = Excitation::new(dt, ag, opts.tail)
-        .map_err(|source| PredictError::Draw { draw: 0, source })?;
+        .map_err(|e| PredictError::Invalid(format!("the ground motion: {e}")))?;
     let every = if opts.band_points == 0 {
         usize::MAX
     } else {
