@@ -141,10 +141,17 @@ pub fn run(a: Args) -> Result<()> {
             band_points: 2000,
         },
     };
-    let inputs: Vec<&Path> = [a.motion.as_deref(), a.params.as_deref()]
-        .into_iter()
-        .flatten()
-        .collect();
+    // The fit's folder is an input too: an output folder holding it would
+    // clean its files away.
+    let fit_json = a.fit.as_ref().map(|d| d.join("fit.json"));
+    let inputs: Vec<&Path> = [
+        a.motion.as_deref(),
+        a.params.as_deref(),
+        fit_json.as_deref(),
+    ]
+    .into_iter()
+    .flatten()
+    .collect();
     let mut dir = OutDir::open(&a.out, &inputs, "predict")?;
     let (p, json) = write(&mut dir, &job)?;
     let record = a.motion.as_deref().map(InputEntry::of).transpose()?;

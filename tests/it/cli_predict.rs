@@ -162,4 +162,44 @@ fn bad_predict_input_exits_2_naming_what_is_wrong() {
     let o = hbis(d.path(), &["predict", "--fit", "nowhere", "--synthetic"]);
     assert_eq!(o.status.code(), Some(2));
     assert!(stderr(&o).contains("nowhere"), "{}", stderr(&o));
+    // An output folder that holds the fit is refused, the fit untouched.
+    std::fs::create_dir_all(d.path().join("fit/chains")).unwrap();
+    let fit_json = r#"{"model": "trilinear+lcfm+viscous", "seed": 1}"#;
+    write(&d.path().join("fit"), "fit.json", fit_json);
+    write(
+        &d.path().join("fit/chains"),
+        "chain-1.csv",
+        "# a comment\nlp__,accept_stat__,u0,uy,uF0,rF0,zeta0,f0,f1,f2,u3\n0,0,0.1166,0.01167,0.00234,0.00235,0.02256,0.53979,0.41723,0.37477,0.08252\n",
+    );
+    let o = hbis(
+        d.path(),
+        &["predict", "--fit", "fit", "--synthetic", "--out", "."],
+    );
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("fit.json"), "{}", stderr(&o));
+    assert_eq!(
+        std::fs::read_to_string(d.path().join("fit/fit.json")).unwrap(),
+        fit_json
+    );
+    // The same fit with an output folder beside it: one draw, as read.
+    let o = hbis(
+        d.path(),
+        &[
+            "predict",
+            "--fit",
+            "fit",
+            "--synthetic",
+            "--out",
+            "p",
+            "--json",
+        ],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let j: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(j["draws"], 1);
+    assert!(
+        stderr(&o).contains("fewer than --draws 1000"),
+        "{}",
+        stderr(&o)
+    );
 }
