@@ -32,7 +32,7 @@ use rayon::prelude::*;
 use serde::Serialize;
 use thiserror::Error;
 
-use crate::inference::summary::quantile;
+use crate::inference::summary::{quantile, ParamSummary};
 use crate::model::forced::{Excitation, ForcedSink, Peaks};
 use crate::model::{ForwardModel, Model, Registry, SimError};
 
@@ -139,23 +139,16 @@ pub struct Stats {
 }
 
 impl Stats {
-    /// Summary of values (type-7 quantiles).
+    /// Summary of values (type-7 quantiles; `sd` 0 for one value), as the
+    /// posterior's parameters are summarised.
     pub fn of(values: &[f64]) -> Self {
-        let n = values.len() as f64;
-        let mean = values.iter().sum::<f64>() / n;
-        let sd = if values.len() > 1 {
-            (values.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1.0)).sqrt()
-        } else {
-            0.0
-        };
-        let mut sorted = values.to_vec();
-        sorted.sort_unstable_by(f64::total_cmp);
+        let s = ParamSummary::from_draws(values);
         Self {
-            mean,
-            sd,
-            q05: quantile(&sorted, 0.05),
-            q50: quantile(&sorted, 0.5),
-            q95: quantile(&sorted, 0.95),
+            mean: s.mean,
+            sd: s.sd,
+            q05: s.q05,
+            q50: s.q50,
+            q95: s.q95,
         }
     }
 }
@@ -301,22 +294,17 @@ pub fn predict(
     }
     let ex = Excitation::new(dt, ag, opts.tail)
         .map_err(|e| PredictError::Invalid(format!("the ground motion: {e}")))?;
-    let every = if opts.band_points == 0 {
-        usize::MAX
-    } else {
-        ex.len().div_ceil(opts.band_points).max(1)
-    };
-    let width = if opts.band_points == 0 {
-        0
-    } else {
-        ex.len().div_ceil(every)
+    // Every `every`-th sample of each draw's displacement, for the band.
+    let (every, width) = match opts.band_points {
+        0 => (1, 0),
+        p => {
+            let every = ex.len().div_ceil(p).max(1);
+            (every, ex.len().div_ceil(every))
+        }
     };
     let mut rows = vec![0.0; width * draws.len()];
-    let chunks: Vec<&mut [f64]> = if width == 0 {
-        draws.iter().map(|_| &mut [][..]).collect()
-    } else {
-        rows.chunks_mut(width).collect()
-    };
+    let mut chunks: Vec<&mut [f64]> = rows.chunks_mut(width.max(1)).collect();
+    chunks.resize_with(draws.len(), Default::default);
     let results: Vec<Result<(DrawOutcome, bool), PredictError>> = draws
         .par_iter()
         .zip(chunks)

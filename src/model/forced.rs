@@ -223,6 +223,11 @@ impl Floored {
         }
     }
 
+    /// Whether the amplitude depends on `u` (phases split at `u = 0`).
+    fn has_slope(&self) -> bool {
+        self.fr.has_slope()
+    }
+
     /// What the slider can hold against a push in direction `dir`.
     #[inline]
     pub(crate) fn capacity(&self, u: f64, dir: f64) -> f64 {
@@ -440,10 +445,11 @@ impl<'a> Forced<'a> {
             v1,
             accel(u1, v1, rem),
         );
-        let (t_lim, u_lim) = match stop {
-            Some(ts) => (ts, at(ts).0),
-            None => (rem, u1),
+        let (t_lim, at_lim) = match stop {
+            Some(ts) => (ts, at(ts)),
+            None => (rem, (u1, v1)),
         };
+        let u_lim = at_lim.0;
         // The nearest displacement event ahead.
         let sign_u = sign_of(u0, d);
         let mut target = self.sp.next_event(st.branch, d).map(|(x, b)| (x, Some(b)));
@@ -452,7 +458,7 @@ impl<'a> Forced<'a> {
                 target = Some((x, None));
             }
         };
-        if self.fr.fr_has_slope() && sign_u != d {
+        if self.fr.has_slope() && sign_u != d {
             consider(0.0);
         }
         if let Some(x) = self.fr.ahead(u0, d) {
@@ -468,11 +474,7 @@ impl<'a> Forced<'a> {
             (None, None) => (rem, None),
         };
         let before = self.line(st, d);
-        let (u, v) = if tau == rem && event.is_none() {
-            (u1, v1)
-        } else {
-            at(tau)
-        };
+        let (u, v) = if tau == t_lim { at_lim } else { at(tau) };
         if !(u.is_finite() && v.is_finite()) || u.abs() > 1e3 {
             return Err(SimError::Diverged { t: tau, u });
         }
@@ -540,12 +542,6 @@ impl<'a> Forced<'a> {
             st.dir = None;
             st.branch = unloaded;
         }
-    }
-}
-
-impl Floored {
-    fn fr_has_slope(&self) -> bool {
-        self.fr.has_slope()
     }
 }
 

@@ -391,7 +391,7 @@ impl NumericSystem<'_> {
         let mut peaks = ForcedPeaks::default();
         let kin = |u, v, dir, travel| Kinematics { u, v, dir, travel };
         // The total acceleration u'' + ag is the forces' (u'' = accel - ag).
-        let note = |peaks: &mut ForcedPeaks, f: &Forces, u: f64, _ag: f64| {
+        let note = |peaks: &mut ForcedPeaks, f: &Forces, u: f64| {
             let shear = f.spring + f.friction + f.damper + f.extra;
             peaks.note(u, shear, f.accel());
         };
@@ -495,12 +495,7 @@ impl NumericSystem<'_> {
                 }
                 if out.stop != Stop::End {
                     // Peaks at the events, as the closed form takes them.
-                    note(
-                        &mut peaks,
-                        &self.forces(b, &state(&out.y)),
-                        out.y[0],
-                        ag(out.t),
-                    );
+                    note(&mut peaks, &self.forces(b, &state(&out.y)), out.y[0]);
                 }
                 t = out.t;
                 [u, v] = out.y;
@@ -514,7 +509,7 @@ impl NumericSystem<'_> {
                         v = 0.0;
                         let unloaded = sp.unload(branch, u);
                         let f = self.forces(unloaded, &kin(u, 0.0, d, s));
-                        note(&mut peaks, &f, u, ag(t));
+                        note(&mut peaks, &f, u);
                         let drive = f.spring + f.extra + ag(t);
                         let nd = -drive.signum();
                         let cap = self.forces(unloaded, &kin(u, 0.0, nd, s)).friction.abs();

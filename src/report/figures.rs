@@ -802,14 +802,7 @@ fn draw_ladder<DB: DrawingBackend>(
                 .legend(move |(x, y)| {
                     PathElement::new([(x, y), (x + 20, y)], orange.stroke_width(2))
                 });
-            chart
-                .configure_series_labels()
-                .label_font((FONT, 14))
-                .background_style(WHITE.mix(0.8))
-                .border_style(BLACK)
-                .position(SeriesLabelPosition::UpperRight)
-                .draw()
-                .map_err(e)?;
+            legend(&mut chart)?;
         }
     }
     root.present().map_err(e)
@@ -1004,6 +997,20 @@ mod tick_tests {
     }
 }
 
+/// The series labels in a framed box, top right.
+fn legend<'a, DB: DrawingBackend + 'a, CT: CoordTranslate>(
+    chart: &mut ChartContext<'a, DB, CT>,
+) -> Result<(), String> {
+    chart
+        .configure_series_labels()
+        .label_font((FONT, 14))
+        .background_style(WHITE.mix(0.8))
+        .border_style(BLACK)
+        .position(SeriesLabelPosition::UpperRight)
+        .draw()
+        .map_err(|x| x.to_string())
+}
+
 /// The posterior predictive displacement under a ground motion: the 5-95 %
 /// band and the median over time (top), the ground acceleration (bottom).
 pub fn response_band_figure(
@@ -1100,14 +1107,7 @@ fn draw_band<DB: DrawingBackend>(
                 .map_err(e)?;
         }
     }
-    chart
-        .configure_series_labels()
-        .label_font((FONT, 14))
-        .background_style(WHITE.mix(0.8))
-        .border_style(BLACK)
-        .position(SeriesLabelPosition::UpperRight)
-        .draw()
-        .map_err(e)?;
+    legend(&mut chart)?;
     let ys = range(ag.iter().copied());
     let mut chart = ChartBuilder::on(&bottom)
         .margin(20)
@@ -1216,14 +1216,7 @@ fn draw_peaks<DB: DrawingBackend>(
             .map_err(e)?
             .label(format!("capacity {:.0} mm", 1e3 * c))
             .legend(move |(x, y)| PathElement::new([(x, y), (x + 20, y)], red.stroke_width(3)));
-        chart
-            .configure_series_labels()
-            .label_font((FONT, 14))
-            .background_style(WHITE.mix(0.8))
-            .border_style(BLACK)
-            .position(SeriesLabelPosition::UpperRight)
-            .draw()
-            .map_err(e)?;
+        legend(&mut chart)?;
     }
     root.present().map_err(e)
 }
