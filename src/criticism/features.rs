@@ -238,7 +238,7 @@ pub fn jump_size(d: &Diagnostics) -> Feature {
         sentence: format!(
             "The acceleration jumps at reversals are {:.0} % {word} in the record than in the model ({z:.0} standard errors; jumps measured between lines fitted on each side of each reversal): the friction force at reversals is {word} than modelled{}.",
             100.0 * (ratio - 1.0).abs(),
-            amplitude_trend(d)
+            amplitude_trend(d, ratio)
         ),
     }
 }
@@ -308,8 +308,12 @@ pub fn colour(d: &Diagnostics) -> Feature {
     }
 }
 
-/// Whether the jump mismatch grows or shrinks with the amplitude.
-fn amplitude_trend(d: &Diagnostics) -> String {
+/// Whether the jump mismatch (record over model `ratio` overall) grows or
+/// shrinks in size with the amplitude. The signed difference record minus
+/// model falls with the amplitude both when jumps too small grow more so
+/// and when jumps too large shrink towards the model's, so its correlation
+/// is read against the mismatch's own sign.
+fn amplitude_trend(d: &Diagnostics, ratio: f64) -> String {
     let x: Vec<f64> = d.jumps.iter().map(|j| j.u.abs()).collect();
     let y: Vec<f64> = d
         .jumps
@@ -329,9 +333,10 @@ fn amplitude_trend(d: &Diagnostics) -> String {
     }
     let r = sxy / (sxx * syy).sqrt();
     if r.abs() > 0.7 {
+        let grows = (r > 0.0) == (ratio > 1.0);
         format!(
-            ", and the mismatch {} with the amplitude (correlation {r:+.2})",
-            if r > 0.0 { "grows" } else { "shrinks" }
+            ", and the mismatch {} with the amplitude (correlation of the difference with the amplitude {r:+.2})",
+            if grows { "grows" } else { "shrinks" }
         )
     } else {
         String::new()
