@@ -474,9 +474,6 @@ fn centred_products(x: &[f64], y: &[f64]) -> (f64, f64) {
     (xx, xy)
 }
 
-/// The least-squares line through `a[range]`, evaluated half a sample
-/// before sample `i` (where a reversal between samples `i - 1` and `i` is
-/// placed).
 /// Where the record's jump near the model's reversal `i` lies: the break
 /// `c` (the jump between samples `c - 1` and `c`) within four samples of
 /// `i` that best splits `a[i-10..=i+10]` into two lines, taken only when
@@ -522,6 +519,9 @@ fn line_sse(a: &[f64], lo: usize, hi: usize) -> f64 {
     }
 }
 
+/// The least-squares line through `a[range]`, evaluated half a sample
+/// before sample `i` (where a reversal between samples `i - 1` and `i` is
+/// placed).
 fn line_at(a: &[f64], range: std::ops::RangeInclusive<usize>, i: usize) -> f64 {
     let x0 = i as f64 - 0.5;
     let pts: Vec<(f64, f64)> = range.map(|k| (k as f64 - x0, a[k])).collect();
