@@ -148,6 +148,9 @@ fn jumps_larger_and_smaller() {
         assert!(d.verdict.contains(&pct), "{scale}: {} / {pct}", d.verdict);
         // Half the model's jumps added or taken away.
         assert!((f.magnitude - 0.5).abs() < 0.15, "{scale}: {f:?}");
+        // The periods are the model's: the spring is not suspected.
+        assert!(!feature(&d, FeatureKind::PeriodAmplitude).significant);
+        assert!(!d.verdict.contains("stand in"), "{}", d.verdict);
     }
 }
 
@@ -285,4 +288,28 @@ fn a_wrong_spring_leaves_the_jumps_measured_at_the_records_reversals() {
         "{}",
         size.sentence
     );
+}
+
+/// Periods off with the amplitude (a softer first post-yield branch, `f1`
+/// 15 % lower) and jumps off (`uF0` halved): the verdict names both, then
+/// suspects the spring before the friction, with both numbers.
+#[test]
+fn periods_and_jumps_off_together_put_the_spring_first() {
+    let m = Model::parse("trilinear+lcfm+viscous").unwrap();
+    let mut p = Params::table_8_1(5).unwrap();
+    p.f1 *= 0.85;
+    p.uf0 *= 0.5;
+    let theta = m.theta_from_params(&p, &[]).unwrap();
+    let mut rng = StdRng::seed_from_u64(0);
+    let rec = synthesize(&m, &theta, DT, N, 0.0, &mut rng).unwrap().clean;
+    let d = diagnosis(&noisy(rec, 9), None);
+    let period = feature(&d, FeatureKind::PeriodAmplitude);
+    let size = feature(&d, FeatureKind::JumpSize);
+    assert!(period.significant && size.significant, "{}", d.verdict);
+    let said = format!(
+        "Both the half-cycle periods (mean error {:.1} % over all half-cycles) and the jumps at reversals ({:.0} % off) are off: a spring law that lacks a branch makes the fitted friction stand in for it",
+        100.0 * period.magnitude,
+        100.0 * size.magnitude
+    );
+    assert!(d.verdict.contains(&said), "{}", d.verdict);
 }
