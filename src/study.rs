@@ -110,6 +110,8 @@ pub struct Fit {
     pub posterior: Posterior<Model>,
     /// The MAP.
     pub map: MapEstimate,
+    /// The second MAP search, when the first left a structured residual.
+    pub second_search: Option<SecondSearch>,
     /// BIC and the maximised log-likelihood at the MAP.
     pub comparison: Comparison,
     /// Laplace log-evidence at the MAP, if asked for.
@@ -139,6 +141,37 @@ impl Fit {
     }
 }
 
+/// A second MAP search from new starts, run when the first search's
+/// residual is structured ([`crate::report::sanity::structured_residual`]):
+/// such a MAP is often a local basin, and another search finds the best
+/// one in about half of those cases (`examples/map_robustness.rs`). The
+/// better of the two is kept.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct SecondSearch {
+    /// Log-posterior of the first search's MAP.
+    pub first_log_posterior: f64,
+    /// Log-posterior of the second search's MAP.
+    pub second_log_posterior: f64,
+    /// Evaluations of the second search.
+    pub evaluations: u64,
+    /// Whether the second search's MAP is kept (it is higher).
+    pub kept_second: bool,
+}
+
+/// Whether the residual of `posterior` at `theta` is structured.
+fn structured(posterior: &Posterior<Model>, theta: &[f64]) -> Result<bool, StudyError> {
+    let model = posterior.model_accel(theta)?;
+    let e: Vec<f64> = posterior
+        .data()
+        .a
+        .iter()
+        .zip(&model)
+        .map(|(a, m)| a - m)
+        .collect();
+    let rho = posterior.noise_part(theta).first().copied();
+    Ok(crate::report::sanity::structured_residual(&e, rho).is_some())
+}
+
 /// Fits `data` with `model`: MAP, then (if asked) the posterior and its
 /// reports. `priors = None` uses the defaults the model's components
 /// declare.
@@ -162,6 +195,31 @@ pub fn fit_record(
         None,
         &mut rng,
     )?;
+    let mut fit = fit;
+    let second_search = if structured(&fit.posterior, &fit.map.theta)? {
+        let again = fit_map(
+            model.clone(),
+            fit.posterior.data().clone(),
+            fit.posterior.priors().clone(),
+            noise,
+            &options.map.clone().with_initial(None)?,
+            None,
+            &mut rng,
+        )?;
+        let (first, second) = (fit.map.eval.log_posterior, again.map.eval.log_posterior);
+        let s = SecondSearch {
+            first_log_posterior: first,
+            second_log_posterior: second,
+            evaluations: again.map.evaluations(),
+            kept_second: second > first,
+        };
+        if s.kept_second {
+            fit = again;
+        }
+        Some(s)
+    } else {
+        None
+    };
     let (posterior, map) = (fit.posterior, fit.map);
     let names = posterior.names().to_vec();
     let spec = model.spec();
@@ -185,6 +243,7 @@ pub fn fit_record(
     let mut fit = Fit {
         posterior,
         map,
+        second_search,
         comparison,
         log_evidence,
         sample: None,

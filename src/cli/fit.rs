@@ -210,6 +210,16 @@ pub fn run(a: Args) -> Result<()> {
         )?;
     }
     print_map(&mut err, &fit.map)?;
+    if let Some(s) = &fit.second_search {
+        writeln!(
+            err,
+            "  the first search's residual was structured: a second search from new starts reached log-posterior {:.3} against {:.3} ({} evaluations); {} kept",
+            s.second_log_posterior,
+            s.first_log_posterior,
+            s.evaluations,
+            if s.kept_second { "its MAP is" } else { "the first MAP is" }
+        )?;
+    }
     if let Some(s) = &fit.sample {
         if !matches!(
             s.checkpoint,

@@ -320,15 +320,7 @@ pub fn diagnose(
     // that the noise model explains is not a missing effect.
     let lag1_raw = autocorrelation(&r, 1);
     let w = self::whiten(&r, whiten);
-    let h = 20usize.min(n / 4);
-    let q = n as f64
-        * (n as f64 + 2.0)
-        * (1..=h)
-            .map(|k| autocorrelation(&w, k).powi(2) / (n - k) as f64)
-            .sum::<f64>();
-    let p = ChiSquared::new(h as f64)
-        .map(|c| 1.0 - c.cdf(q))
-        .unwrap_or(f64::NAN);
+    let (q, p) = ljung_box(&w);
     let lag1 = autocorrelation(&w, 1);
     // Spectrum (Hann window, periodogram).
     let size = n.next_power_of_two();
@@ -550,8 +542,32 @@ pub fn whiten(e: &[f64], rho: Option<f64>) -> Vec<f64> {
     }
 }
 
+/// Ljung-Box statistic `Q` of `w` over `min(20, n / 4)` lags and its
+/// p-value (chi-square with as many degrees of freedom).
+///
+/// ```
+/// use hbis::criticism::residuals::ljung_box;
+/// // A sign that alternates is as serially correlated as a series can be.
+/// let w: Vec<f64> = (0..400).map(|i| if i % 2 == 0 { 1.0 } else { -1.0 }).collect();
+/// let (q, p) = ljung_box(&w);
+/// assert!(q > 1000.0 && p < 1e-12);
+/// ```
+pub fn ljung_box(w: &[f64]) -> (f64, f64) {
+    let n = w.len();
+    let h = 20usize.min(n / 4);
+    let q = n as f64
+        * (n as f64 + 2.0)
+        * (1..=h)
+            .map(|k| autocorrelation(w, k).powi(2) / (n - k) as f64)
+            .sum::<f64>();
+    let p = ChiSquared::new(h as f64)
+        .map(|c| 1.0 - c.cdf(q))
+        .unwrap_or(f64::NAN);
+    (q, p)
+}
+
 /// Lag-`k` autocorrelation of `x` about its mean.
-fn autocorrelation(x: &[f64], k: usize) -> f64 {
+pub fn autocorrelation(x: &[f64], k: usize) -> f64 {
     let n = x.len();
     let mean = x.iter().sum::<f64>() / n as f64;
     let c0: f64 = x.iter().map(|v| (v - mean).powi(2)).sum();

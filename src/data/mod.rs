@@ -10,5 +10,5 @@ pub use record::{
     Aligned, Outlier, Record, RecordError, ReleaseSource, MAX_SAMPLES, MIN_SAMPLES,
     OUTLIER_THRESHOLD,
 };
-pub use synthetic::{synthesize, Synthetic};
+pub use synthetic::{random_wide_params, synthesize, Synthetic};
 pub use validation::{record_warnings, AccelUnits, UnknownUnits, Warning};

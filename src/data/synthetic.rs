@@ -68,6 +68,34 @@ pub fn synthesize<M: ForwardModel + ?Sized, R: Rng + ?Sized>(
     })
 }
 
+/// A random parameter set over the range of real hybrid isolation systems,
+/// not tied to a Table 8.1 column: `u0` 5 to 20 cm, `uy` 3 to 30 % of it,
+/// `uF0` 0.5 to 4 mm, `rF0` within ±0.02, `zeta0` up to 8 %, `f0` 0.3 to
+/// 1.2 Hz, `f1` 40 to 95 % of `f0`, `f2` 70 to 160 % of `f1` (kept below
+/// `0.95 f0`), `u3` 30 to 90 % of `u0` (kept above `1.5 uy`). It makes the
+/// records on which the MAP search's robustness is measured
+/// (`examples/map_robustness.rs`).
+///
+/// ```
+/// use hbis::data::random_wide_params;
+/// use rand::{rngs::StdRng, SeedableRng};
+/// let p = random_wide_params(&mut StdRng::seed_from_u64(1));
+/// assert!(p.f1 < p.f0 && p.f2 < p.f0 && p.u3 > p.uy && p.u3 < p.u0);
+/// ```
+pub fn random_wide_params<R: Rng + ?Sized>(rng: &mut R) -> crate::model::Params {
+    use rand::RngExt;
+    let u0: f64 = rng.random_range(0.05..0.2);
+    let f0: f64 = rng.random_range(0.3..1.2);
+    let uy = u0 * rng.random_range(0.03..0.3);
+    let u_f0 = rng.random_range(0.0005..0.004);
+    let r_f0 = rng.random_range(-0.02..0.02);
+    let zeta0 = rng.random_range(0.0..0.08);
+    let f1: f64 = f0 * rng.random_range(0.4..0.95);
+    let f2 = (f1 * rng.random_range(0.7..1.6)).min(0.95 * f0);
+    let u3 = (u0 * rng.random_range(0.3..0.9)).max(1.5 * uy);
+    crate::model::Params::from_array([u0, uy, u_f0, r_f0, zeta0, f0, f1, f2, u3])
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

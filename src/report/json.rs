@@ -100,6 +100,10 @@ pub struct FitReport {
     pub cmaes_runs: Vec<RunInfo>,
     /// The polish.
     pub polish: Option<PolishReport>,
+    /// The second MAP search, present when the first left a structured
+    /// residual ([`crate::study::SecondSearch`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub map_second_search: Option<crate::study::SecondSearch>,
     /// Wall time of the MAP search (s); with `sampling.wall_time_s` the only
     /// keys that vary between runs with the same seed.
     pub wall_time_s: f64,
@@ -246,6 +250,7 @@ impl FitReport {
                 })
                 .collect(),
             polish: map.polish.clone(),
+            map_second_search: None,
             wall_time_s: map.wall_time,
             posterior: None,
             ranking: None,
@@ -272,6 +277,7 @@ impl FitReport {
         thin: Option<usize>,
     ) -> Self {
         let mut r = Self::from_map(model, seed, noise, data, &fit.map);
+        r.map_second_search = fit.second_search;
         r.max_log_likelihood = Some(fit.comparison.log_likelihood);
         r.bic = Some(fit.comparison.bic);
         r.log_evidence = fit.log_evidence;
@@ -329,6 +335,14 @@ impl FitReport {
             fit.map.eval.e2,
             fit.posterior.priors(),
         );
+        let theta = &fit.map.theta;
+        if let Ok(model) = fit.posterior.model_accel(theta) {
+            let data = fit.posterior.data();
+            let e: Vec<f64> = data.a.iter().zip(&model).map(|(a, m)| a - m).collect();
+            let rho = fit.posterior.noise_part(theta).first().copied();
+            r.warnings
+                .extend(crate::report::sanity::structured_residual(&e, rho));
+        }
         if let Some(s) = &fit.sample {
             let worst = s.rhat.iter().copied().fold(f64::NAN, f64::max);
             if !s.converged {

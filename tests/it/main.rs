@@ -26,6 +26,7 @@ mod evidence;
 mod evidence_analytic;
 mod forced;
 mod identifiability;
+mod map_second_search;
 mod map_synthetic;
 mod model_props;
 mod numeric_engine;
