@@ -15,7 +15,7 @@
 //! `first + k` for its parameters, its noise and its fit. docs/inference.md
 //! quotes that command's counts.
 
-use hbis::data::{random_wide_params, synthesize};
+use hbis::data::{random_wide_params, synthesize, Synthetic};
 use hbis::inference::Noise;
 use hbis::model::{Model, ModelSpec};
 use hbis::study::{fit_record, FitOptions};
@@ -49,12 +49,18 @@ impl Outcome {
     }
 }
 
-/// Makes record `seed` and fits it.
-pub fn fit_one(seed: u64) -> Outcome {
+/// Record `seed`: its model, its truth and the record.
+pub fn record(seed: u64) -> (ModelSpec, Vec<f64>, Synthetic) {
     let spec: ModelSpec = "trilinear+lcfm+viscous".parse().expect("a valid spec");
     let mut rng = StdRng::seed_from_u64(seed);
     let truth = random_wide_params(&mut rng).to_theta(&spec);
     let syn = synthesize(&spec, &truth, 0.005, 2001, 0.015, &mut rng).expect("simulates");
+    (spec, truth, syn)
+}
+
+/// Makes record `seed` and fits it.
+pub fn fit_one(seed: u64) -> Outcome {
+    let (spec, truth, syn) = record(seed);
     let data = syn.record.aligned(None).expect("a release");
     let options = FitOptions {
         seed,
@@ -78,18 +84,10 @@ pub fn fit_one(seed: u64) -> Outcome {
     )
     .expect("a fit");
     let second = fit.second_search;
-    let model = fit
+    let e = fit
         .posterior
-        .model_accel(&fit.map.theta)
+        .residual(&fit.map.theta)
         .expect("the MAP runs");
-    let e: Vec<f64> = fit
-        .posterior
-        .data()
-        .a
-        .iter()
-        .zip(&model)
-        .map(|(a, m)| a - m)
-        .collect();
     Outcome {
         warned: hbis::report::sanity::structured_residual(&e, None).is_some(),
         seed,

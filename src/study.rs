@@ -160,14 +160,7 @@ pub struct SecondSearch {
 
 /// Whether the residual of `posterior` at `theta` is structured.
 fn structured(posterior: &Posterior<Model>, theta: &[f64]) -> Result<bool, StudyError> {
-    let model = posterior.model_accel(theta)?;
-    let e: Vec<f64> = posterior
-        .data()
-        .a
-        .iter()
-        .zip(&model)
-        .map(|(a, m)| a - m)
-        .collect();
+    let e = posterior.residual(theta)?;
     let rho = posterior.noise_part(theta).first().copied();
     Ok(crate::report::sanity::structured_residual(&e, rho).is_some())
 }

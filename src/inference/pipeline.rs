@@ -185,14 +185,7 @@ fn log_likelihood_at<M: ForwardModel>(
     posterior: &Posterior<M>,
     theta: &[f64],
 ) -> Result<f64, PipelineError> {
-    let model = posterior.model_accel(theta)?;
-    let r: Vec<f64> = posterior
-        .data()
-        .a
-        .iter()
-        .zip(&model)
-        .map(|(a, m)| a - m)
-        .collect();
+    let r = posterior.residual(theta)?;
     let rho = posterior.noise_part(theta).first().copied();
     let s = match rho {
         Some(rho) => ar1_sum(&r, rho).0,

@@ -234,6 +234,15 @@ impl<M: ForwardModel> Posterior<M> {
         Ok(out)
     }
 
+    /// The residual, record minus model, on the record's grid.
+    pub fn residual(&self, theta: &[f64]) -> Result<Vec<f64>, SimError> {
+        let mut r = self.model_accel(theta)?;
+        for (m, a) in r.iter_mut().zip(&self.data.a) {
+            *m = a - *m;
+        }
+        Ok(r)
+    }
+
     /// Evaluates prior, likelihood and `e2` at `theta`.
     pub fn evaluate(&self, theta: &[f64]) -> Result<Evaluation, PosteriorError> {
         if theta.len() != self.dim() {

@@ -336,9 +336,7 @@ impl FitReport {
             fit.posterior.priors(),
         );
         let theta = &fit.map.theta;
-        if let Ok(model) = fit.posterior.model_accel(theta) {
-            let data = fit.posterior.data();
-            let e: Vec<f64> = data.a.iter().zip(&model).map(|(a, m)| a - m).collect();
+        if let Ok(e) = fit.posterior.residual(theta) {
             let rho = fit.posterior.noise_part(theta).first().copied();
             r.warnings
                 .extend(crate::report::sanity::structured_residual(&e, rho));

@@ -12,9 +12,6 @@ mod map_robustness;
 use crate::bin;
 
 use bin::{hbis, stderr};
-use hbis::data::{random_wide_params, synthesize};
-use hbis::model::ModelSpec;
-use rand::{rngs::StdRng, SeedableRng};
 
 #[test]
 fn a_structured_residual_triggers_a_second_search_that_is_kept_when_higher() {
@@ -30,10 +27,7 @@ fn a_structured_residual_triggers_a_second_search_that_is_kept_when_higher() {
 /// error, and the kept MAP leaves no `structured-residual` warning.
 #[test]
 fn fit_json_reports_the_second_search() {
-    let spec: ModelSpec = "trilinear+lcfm+viscous".parse().unwrap();
-    let mut rng = StdRng::seed_from_u64(517);
-    let truth = random_wide_params(&mut rng).to_theta(&spec);
-    let syn = synthesize(&spec, &truth, 0.005, 2001, 0.015, &mut rng).unwrap();
+    let (_, _, syn) = map_robustness::record(517);
     let dir = tempfile::tempdir().unwrap();
     std::fs::write(dir.path().join("rec.csv"), syn.record.to_csv()).unwrap();
     let o = hbis(
