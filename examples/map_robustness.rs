@@ -84,12 +84,8 @@ pub fn fit_one(seed: u64) -> Outcome {
     )
     .expect("a fit");
     let second = fit.second_search;
-    let e = fit
-        .posterior
-        .residual(&fit.map.theta)
-        .expect("the MAP runs");
     Outcome {
-        warned: hbis::report::sanity::structured_residual(&e, None).is_some(),
+        warned: hbis::report::sanity::structured_at(&fit.posterior, &fit.map.theta).is_some(),
         seed,
         ratio: fit.map.eval.e2 / floor,
         second: second.map(|s| s.kept_second),

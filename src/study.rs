@@ -159,13 +159,6 @@ pub struct SecondSearch {
     pub kept_second: bool,
 }
 
-/// Whether the residual of `posterior` at `theta` is structured.
-fn structured(posterior: &Posterior<Model>, theta: &[f64]) -> Result<bool, StudyError> {
-    let e = posterior.residual(theta)?;
-    let rho = posterior.noise_part(theta).first().copied();
-    Ok(crate::report::sanity::structured_residual(&e, rho).is_some())
-}
-
 /// Fits `data` with `model`: MAP, then (if asked) the posterior and its
 /// reports. `priors = None` uses the defaults the model's components
 /// declare.
@@ -189,7 +182,8 @@ pub fn fit_record(
         None,
         &mut rng,
     )?;
-    let second_search = if structured(&fit.posterior, &fit.map.theta)? {
+    let structured = crate::report::sanity::structured_at(&fit.posterior, &fit.map.theta);
+    let second_search = if structured.is_some() {
         let again = fit_map(
             model.clone(),
             fit.posterior.data().clone(),

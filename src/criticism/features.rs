@@ -361,8 +361,8 @@ pub fn all(d: &Diagnostics, n: usize) -> Vec<Feature> {
 /// the spring law is suspect before the friction: a fit whose spring lacks
 /// a branch bends its friction to make up for it (fitted to a trilinear
 /// Test 5 record, `bilinear+lcfm+viscous` takes `rF0` 3.8 times the
-/// truth's), so the jumps then
-/// compare the record with a friction that is itself standing in.
+/// truth's), so the jumps then compare the record with a friction that is
+/// itself standing in.
 fn spring_behind_friction(structured: &[&Feature]) -> Option<String> {
     let of = |k: FeatureKind| structured.iter().find(|f| f.kind == k);
     let (period, jump) = (

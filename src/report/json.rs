@@ -335,12 +335,10 @@ impl FitReport {
             fit.map.eval.e2,
             fit.posterior.priors(),
         );
-        let theta = &fit.map.theta;
-        if let Ok(e) = fit.posterior.residual(theta) {
-            let rho = fit.posterior.noise_part(theta).first().copied();
-            r.warnings
-                .extend(crate::report::sanity::structured_residual(&e, rho));
-        }
+        r.warnings.extend(crate::report::sanity::structured_at(
+            &fit.posterior,
+            &fit.map.theta,
+        ));
         if let Some(s) = &fit.sample {
             let worst = s.rhat.iter().copied().fold(f64::NAN, f64::max);
             if !s.converged {

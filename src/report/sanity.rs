@@ -129,6 +129,18 @@ pub fn structured_residual(residual: &[f64], rho: Option<f64>) -> Option<Warning
     })
 }
 
+/// [`structured_residual`] of `posterior`'s residual at `theta`, whitened
+/// by the noise model's AR(1) coefficient if it has one; `None` also when
+/// the model cannot run there.
+pub fn structured_at<M: crate::model::ForwardModel>(
+    posterior: &crate::inference::Posterior<M>,
+    theta: &[f64],
+) -> Option<Warning> {
+    let e = posterior.residual(theta).ok()?;
+    let rho = posterior.noise_part(theta).first().copied();
+    structured_residual(&e, rho)
+}
+
 /// Both checks of a fitted model.
 pub fn fit_warnings(names: &[String], theta: &[f64], e2: f64, priors: &Priors) -> Vec<Warning> {
     let mut w: Vec<Warning> = explains_nothing(e2).into_iter().collect();
