@@ -114,12 +114,41 @@ fn forward_model(c: &mut Criterion) {
     });
 }
 
+/// The numerical engine (Dormand-Prince with event location) on the same
+/// record: Test 5 with velocity-dependent friction, and the closed-form
+/// model itself solved numerically. Criticism's refits of non-linear
+/// effects spend most of their time here.
+fn numeric_engine(c: &mut Criterion) {
+    use hbis::model::{ForwardModel, Model};
+    let p = Params::table_8_1(5).unwrap();
+    let mut out = vec![0.0; 2001];
+    let slow = Model::parse("trilinear+lcfm+viscous+velocity-friction").unwrap();
+    let theta = slow
+        .theta_from_params(&p, &[("r_mu", 0.4), ("v_t", 0.03)])
+        .unwrap();
+    c.bench_function("numeric_velocity_friction_test5_2001", |b| {
+        b.iter(|| slow.accel_into(black_box(&theta), 0.005, &mut out).unwrap())
+    });
+    let plain = Model::parse("trilinear+lcfm+viscous")
+        .unwrap()
+        .numerically();
+    let theta = plain.theta_from_params(&p, &[]).unwrap();
+    c.bench_function("numeric_closed_form_test5_2001", |b| {
+        b.iter(|| {
+            plain
+                .accel_into(black_box(&theta), 0.005, &mut out)
+                .unwrap()
+        })
+    });
+}
+
 criterion_group!(
     benches,
     floor_2001,
     record_2001,
     growth,
     record_100k,
-    forward_model
+    forward_model,
+    numeric_engine
 );
 criterion_main!(benches);

@@ -398,6 +398,7 @@ impl NumericSystem<'_> {
         peaks.note(0.0, ex.at(0), ex.at(0));
         sink.sample(0, 0.0, 0.0, ex.at(0));
         let mut events = 0usize;
+        let mut h_carry = None;
         for k in 0..ex.len() - 1 {
             let t_k = k as f64 * dt;
             let (ak, slope) = (ex.at(k), (ex.at(k + 1) - ex.at(k)) / dt);
@@ -469,6 +470,8 @@ impl NumericSystem<'_> {
                     g[extremum + 1] = (total(&yp) - total(&ym)) / (2.0 * h);
                 };
                 let v_start = if v * d < 0.0 { 0.0 } else { v };
+                // The last stretch's step suits this one: no start-up steps.
+                let ode = h_carry.map_or(ode, |h| ode.with_h_init(h).unwrap_or(ode));
                 let mut out = ode
                     .solve(
                         rhs,
@@ -499,6 +502,7 @@ impl NumericSystem<'_> {
                 }
                 t = out.t;
                 [u, v] = out.y;
+                h_carry = Some(out.h_next);
                 s = s_s + d * (u - u_s);
                 if !(u.is_finite() && v.is_finite()) || u.abs() > 1e3 {
                     return Err(SimError::Diverged { t, u });

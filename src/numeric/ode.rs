@@ -87,6 +87,10 @@ pub struct Outcome<const N: usize> {
     pub stop: Stop,
     pub steps: usize,
     pub evaluations: usize,
+    /// The step the controller would take next: a good
+    /// [`with_h_init`](Dopri5::with_h_init) for a run that continues from
+    /// here.
+    pub h_next: f64,
 }
 
 /// One accepted step and its continuous extension.
@@ -337,6 +341,7 @@ impl Dopri5 {
                 h *= factor.min(1.0);
                 continue;
             }
+            let h_next = (h * factor).min(self.h_max);
             steps += 1;
             let t_new = if last { t_end } else { t + h };
             let ydiff: [f64; N] = std::array::from_fn(|i| y_new[i] - y[i]);
@@ -404,6 +409,7 @@ impl Dopri5 {
                     stop: Stop::Event { index: e },
                     steps,
                     evaluations: evals,
+                    h_next,
                 });
             }
             for e in 0..n_events {
@@ -422,9 +428,10 @@ impl Dopri5 {
                     stop: Stop::End,
                     steps,
                     evaluations: evals,
+                    h_next,
                 });
             }
-            h = (h * factor).min(self.h_max);
+            h = h_next;
         }
     }
 
@@ -578,6 +585,33 @@ mod tests {
             .solve(osc, 0.0, [1.0, 0.0], 5.0, 1, |_, y, g| g[0] = y[1], |_| {})
             .unwrap();
         assert!((rev.t - std::f64::consts::PI).abs() < 1e-12, "{}", rev.t);
+    }
+
+    /// `h_next` lets a run continue where another stopped without start-up
+    /// steps: continuing from an event takes the steps a single run takes.
+    #[test]
+    fn a_continued_run_starts_with_the_step_the_last_one_proposed() {
+        let ode = Dopri5::new().with_rtol(1e-9).unwrap();
+        let first = ode
+            .solve(osc, 0.0, [1.0, 0.0], 20.0, 1, |_, y, g| g[0] = y[1], |_| {})
+            .unwrap();
+        let rest = |ode: Dopri5| {
+            ode.solve(osc, first.t, first.y, 20.0, 0, |_, _, _| {}, |_| {})
+                .unwrap()
+                .evaluations
+        };
+        let cold = rest(ode);
+        let warm = rest(ode.with_h_init(first.h_next).unwrap());
+        assert!(warm < cold, "warm {warm} cold {cold}");
+        let whole = ode
+            .solve(osc, 0.0, [1.0, 0.0], 20.0, 0, |_, _, _| {}, |_| {})
+            .unwrap()
+            .evaluations;
+        assert!(
+            first.evaluations + warm <= whole + 7,
+            "{} + {warm} vs {whole}",
+            first.evaluations
+        );
     }
 
     #[test]
