@@ -381,21 +381,72 @@ fn with_evidence(
     })
 }
 
+/// Fractions of the prior range tried, in order, for a spread start whose
+/// requested fraction leaves the new component without effect.
+const FALLBACK: [f64; 7] = [0.25, 0.75, 0.125, 0.375, 0.625, 0.875, 0.0625];
+
+/// A start changes the prediction by less than this fraction of its RMS:
+/// the new component has no effect there (the engine's own error is
+/// some 1e-8 relative).
+const NO_EFFECT: f64 = 1e-6;
+
 /// Starts of a candidate's refit: the warm start (the new parameters
-/// switched off), then spread starts with the new parameters at `spread`
-/// fractions of their prior range (the others at the current MAP).
-fn starts(c: &Candidate, new: &[usize], spread: &[f64]) -> Vec<Vec<f64>> {
+/// switched off), then one spread start per entry of `spread`, the new
+/// parameters at that fraction of their prior range (the others at the
+/// current MAP).
+///
+/// A spread start where the component does nothing on this record sits on
+/// a plateau that the search may never leave: mid-range, a stopper's
+/// `gap` lay beyond the release amplitude, and whether CMA-ES found the
+/// stopper then hung on 1e-6 changes in the engine. Such a start moves to
+/// the first [`FALLBACK`] fraction (not already used) where the component
+/// acts; if none does, it stays.
+fn starts(c: &Candidate, new: &[usize], spread: &[f64], data: &Aligned) -> Vec<Vec<f64>> {
     let bounds = c.model.bounds();
-    let mut out = vec![c.start.clone()];
-    for &f in spread {
+    let at = |f: f64| {
         let mut s = c.start.clone();
         for &k in new {
             let (lo, hi) = bounds[k];
             s[k] = lo + f * (hi - lo);
         }
-        out.push(s);
+        s
+    };
+    let mut warm = vec![0.0; data.a.len()];
+    // A start the engine cannot solve is left to the search to reject.
+    let checked = data.model_accel_into(&c.model, &c.start, &mut warm).is_ok();
+    let scale = NO_EFFECT * rms(&warm);
+    let mut buf = vec![0.0; warm.len()];
+    let mut acts = |s: &[f64]| {
+        !checked
+            || data.model_accel_into(&c.model, s, &mut buf).is_err()
+            || rms_diff(&buf, &warm) > scale
+    };
+    let mut used: Vec<f64> = spread.to_vec();
+    let mut out = vec![c.start.clone()];
+    for &f in spread {
+        let mut chosen = at(f);
+        if !acts(&chosen) {
+            if let Some(&g) = FALLBACK
+                .iter()
+                .filter(|g| !used.contains(g))
+                .find(|&&g| acts(&at(g)))
+            {
+                used.push(g);
+                chosen = at(g);
+            }
+        }
+        out.push(chosen);
     }
     out
+}
+
+fn rms_diff(a: &[f64], b: &[f64]) -> f64 {
+    let d: Vec<f64> = a.iter().zip(b).map(|(x, y)| x - y).collect();
+    rms(&d)
+}
+
+fn rms(x: &[f64]) -> f64 {
+    (x.iter().map(|v| v * v).sum::<f64>() / x.len().max(1) as f64).sqrt()
 }
 
 /// Refits `c` from each start; the best, with how many starts reached it
@@ -501,8 +552,14 @@ pub fn rank_candidates(
         } else {
             &[0.5]
         };
-        let (refit, n_starts, agreeing) =
-            multi_start(&c, starts(&c, &new, spread), data, noise, budget, &mut rng)?;
+        let (refit, n_starts, agreeing) = multi_start(
+            &c,
+            starts(&c, &new, spread, data),
+            data,
+            noise,
+            budget,
+            &mut rng,
+        )?;
         refits.push((c, score, refit, n_starts, agreeing, new));
     }
     // A candidate must not look supported because its refit found a better
@@ -1205,4 +1262,98 @@ pub fn ladder_observed(
         }
     }
     Ok(steps)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::data::synthesize;
+    use crate::model::{ForceComponent, Forces, Kinematics, ParamSpec, Params};
+    use std::sync::Arc;
+
+    /// A stopper beyond `|u| = gap`; mid-range, `gap` (0.155 m) lies
+    /// beyond Test 5's release (0.117 m).
+    struct Stopper;
+
+    impl ForceComponent for Stopper {
+        fn name(&self) -> &str {
+            "stopper"
+        }
+        fn params(&self) -> Vec<ParamSpec> {
+            vec![
+                ParamSpec::new("k_gap", "1/s^2", (0.0, 20.0), 0.0),
+                ParamSpec::new("gap", "m", (0.01, 0.3), 0.1),
+            ]
+        }
+        fn meaning(&self) -> &str {
+            "a stopper"
+        }
+        fn signature(&self) -> &str {
+            "a stiffening beyond a displacement"
+        }
+        fn piecewise_linear(&self) -> bool {
+            false
+        }
+        fn modify(&self, theta: &[f64], s: &Kinematics, f: &mut Forces) {
+            let over = s.u.abs() - theta[1];
+            if over > 0.0 {
+                f.extra += theta[0] * over * s.u.signum();
+            }
+        }
+    }
+
+    fn setup() -> (Registry, Model, Vec<f64>, Aligned) {
+        let mut registry = Registry::builtin();
+        registry.register_force(Arc::new(Stopper)).unwrap();
+        let model = registry.parse("trilinear+lcfm+viscous").unwrap();
+        let p = Params::table_8_1(5).unwrap();
+        let theta = model.theta_from_params(&p, &[]).unwrap();
+        let mut rng = StdRng::seed_from_u64(1);
+        let syn = synthesize(&model, &theta, 0.005, 2001, 0.015, &mut rng).unwrap();
+        (registry, model, theta, syn.record.aligned(None).unwrap())
+    }
+
+    fn candidate(registry: &Registry, model: &Model, theta: &[f64], name: &str) -> Candidate {
+        registry
+            .candidates(model, theta)
+            .into_iter()
+            .find(|c| c.effect == name)
+            .unwrap()
+    }
+
+    fn index(c: &Candidate, name: &str) -> usize {
+        c.model
+            .param_names()
+            .iter()
+            .position(|n| n == name)
+            .unwrap()
+    }
+
+    /// The mid-range start of the stopper does nothing on this record; it
+    /// moves to the first fallback fraction where the stopper engages.
+    #[test]
+    fn a_spread_start_on_a_plateau_moves_to_where_the_component_acts() {
+        let (registry, model, theta, data) = setup();
+        let c = candidate(&registry, &model, &theta, "stopper");
+        let new = [index(&c, "k_gap"), index(&c, "gap")];
+        let s = starts(&c, &new, &[0.5], &data);
+        assert_eq!(s.len(), 2);
+        assert_eq!(s[0], c.start);
+        // 0.25 of the range: k_gap 5, gap 0.0825 m, inside the motion.
+        assert_eq!(
+            [s[1][new[0]], s[1][new[1]]],
+            [5.0, 0.01 + 0.25 * (0.3 - 0.01)]
+        );
+    }
+
+    /// A start where the component acts is kept where it was asked for.
+    #[test]
+    fn a_spread_start_where_the_component_acts_stays() {
+        let (registry, model, theta, data) = setup();
+        let c = candidate(&registry, &model, &theta, "offset");
+        let k = index(&c, "a_off");
+        let s = starts(&c, &[k], &[0.25, 0.75], &data);
+        assert!((s[1][k] + 0.1).abs() < 1e-12, "{}", s[1][k]);
+        assert!((s[2][k] - 0.1).abs() < 1e-12, "{}", s[2][k]);
+    }
 }
