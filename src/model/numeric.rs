@@ -182,6 +182,7 @@ impl<'a> NumericSystem<'a> {
             .and_then(|o| o.with_h_max(0.05))
             .expect("valid tolerances");
         let mut phases = 0;
+        let mut h_carry: Option<f64> = None;
         // Travel within a stretch of direction d that started at (u_s, s_s).
         let state = |y: &[f64; 2], d: f64, u_s: f64, s_s: f64| Kinematics {
             u: y[0],
@@ -250,6 +251,10 @@ impl<'a> NumericSystem<'a> {
             };
             // A phase that starts exactly on its kink must not stop at once.
             let v_start = if v * d < 0.0 { 0.0 } else { v };
+            // The step the last phase ended with suits the next one (the
+            // motion's time scale does not change at an event), and saves
+            // the start-up steps.
+            let ode = h_carry.map_or(ode, |h| ode.with_h_init(h).unwrap_or(ode));
             let outcome = ode
                 .solve(
                     rhs,
@@ -266,6 +271,7 @@ impl<'a> NumericSystem<'a> {
             }
             t = outcome.t;
             [u, v] = outcome.y;
+            h_carry = Some(outcome.h_next);
             s = s_s + d * (u - u_s);
             if !(u.is_finite() && v.is_finite()) || u.abs() > 1e6 * u0.abs().max(1e-3) {
                 return Err(SimError::Diverged { t, u });
