@@ -10,7 +10,7 @@
 //! - a **multi-start refit** (CMA-ES + polish): from the current MAP with
 //!   the effect off (so the fit can only improve), and from spread starts
 //!   with the new parameters at a quarter and three quarters of their range
-//!   (mid-range only on the numerical engine, which costs some 15 to 30
+//!   (mid-range only on the numerical engine, which costs some 14 to 27
 //!   times the closed form; a start where the effect does nothing moves to
 //!   where it acts); the best is kept and the report says how many starts
 //!   reached it. It gives `e2`, the change of the maximised
@@ -442,8 +442,8 @@ fn starts(c: &Candidate, new: &[usize], spread: &[f64], data: &Aligned) -> Vec<V
 }
 
 fn rms_diff(a: &[f64], b: &[f64]) -> f64 {
-    let d: Vec<f64> = a.iter().zip(b).map(|(x, y)| x - y).collect();
-    rms(&d)
+    let sq: f64 = a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum();
+    (sq / a.len().max(1) as f64).sqrt()
 }
 
 fn rms(x: &[f64]) -> f64 {
@@ -504,8 +504,8 @@ pub fn rank_candidates(
     data.model_accel_into(current, theta_now, &mut model_now)?;
     let nuisance = jacobian(current, theta_now, &model_now, data);
     let mut rng = StdRng::seed_from_u64(seed);
-    // The numerical engine costs some 15 to 30 times the closed form: its refits
-    // get a smaller budget (the warm start is already close).
+    // The numerical engine costs some 14 to 27 times the closed form: its
+    // refits get a smaller budget (the warm start is already close).
     let numeric_budget = settings
         .clone()
         .with_max_evals(NUMERIC_BUDGET)?
@@ -546,7 +546,7 @@ pub fn rank_candidates(
             &numeric_budget
         };
         let score = score_test(&c.model, &c.start, &new, data, &nuisance);
-        // The numerical engine costs some 15 to 30 times the closed form: one
+        // The numerical engine costs some 14 to 27 times the closed form: one
         // spread start (mid-range) instead of two.
         let spread: &[f64] = if c.model.closed_form() {
             &[0.25, 0.75]
