@@ -80,7 +80,7 @@ impl Default for MapSettings {
 }
 
 impl MapSettings {
-    /// Total CMA-ES evaluation budget (default 150,000).
+    /// Total CMA-ES evaluation budget (default 200,000).
     pub fn with_max_evals(mut self, n: usize) -> Result<Self, MapError> {
         if n < 100 {
             return Err(MapError::Setting {
@@ -92,7 +92,7 @@ impl MapSettings {
         Ok(self)
     }
 
-    /// Most IPOP restarts after the first run (default 9).
+    /// Most IPOP restarts after the first run (default 19).
     pub fn with_restarts(mut self, n: usize) -> Result<Self, MapError> {
         self.restarts = n;
         Ok(self)
