@@ -599,6 +599,8 @@ pub fn rank_candidates(
         )?;
     }
     let fit = &fit;
+    // Kept only where it fits better than the closed-form fit (above).
+    let numeric_baseline = numeric_baseline.filter(|b| b.log_likelihood > fit.log_likelihood);
     let features_now = diagnosis_of(current, fit, data)?.features;
     let features_numeric = match &numeric_baseline {
         Some(b) => Some(diagnosis_of(&current.clone().numerically(), b, data)?.features),
@@ -608,11 +610,7 @@ pub fn rank_candidates(
     for (c, score, refit, n_starts, agreeing, new) in refits {
         let physical_size = physical_size(&c.model, &refit.theta, &new);
         let (fit, before) = match (&numeric_baseline, &features_numeric) {
-            (Some(b), Some(f))
-                if !c.model.closed_form() && b.log_likelihood > fit.log_likelihood =>
-            {
-                (b, f)
-            }
+            (Some(b), Some(f)) if !c.model.closed_form() => (b, f),
             _ => (fit, &features_now),
         };
         let delta_bic = refit.bic - fit.bic;

@@ -119,54 +119,6 @@ pub fn sum_of_squares(r: &[f64]) -> f64 {
     (acc[0] + acc[1]) + (acc[2] + acc[3]) + tail
 }
 
-/// The sums the likelihood needs from the residual `a - m`, taken without
-/// storing it: its sum of squares (as [`sum_of_squares`] adds it) and,
-/// with `rho`, the pre-whitened AR(1) sum and log-Jacobian (as
-/// [`ar1_sum`] adds them). The additions are the same, in the same order,
-/// as on a stored residual, so the results are equal to the last bit;
-/// the posterior saves a pass that writes 2,001 samples.
-///
-/// ```
-/// use hbis::inference::likelihood::{ar1_sum, residual_sums, sum_of_squares};
-/// let a = [1.0, 0.5, -0.25, 2.0, 0.125];
-/// let m = [0.9, 0.6, -0.5, 1.5, 0.0];
-/// let r: Vec<f64> = a.iter().zip(&m).map(|(a, m)| a - m).collect();
-/// let (sse, ar1) = residual_sums(&a, &m, Some(0.7));
-/// assert_eq!(sse, sum_of_squares(&r));
-/// assert_eq!(ar1, Some(ar1_sum(&r, 0.7)));
-/// assert_eq!(residual_sums(&a, &m, None).1, None);
-/// ```
-pub fn residual_sums(a: &[f64], m: &[f64], rho: Option<f64>) -> (f64, Option<(f64, f64)>) {
-    debug_assert_eq!(a.len(), m.len());
-    let full = a.len() / 4 * 4;
-    let mut acc = [0.0f64; 4];
-    for (ca, cm) in a[..full].chunks_exact(4).zip(m[..full].chunks_exact(4)) {
-        for k in 0..4 {
-            let d = ca[k] - cm[k];
-            acc[k] += d * d;
-        }
-    }
-    let tail: f64 = a[full..]
-        .iter()
-        .zip(&m[full..])
-        .map(|(a, m)| (a - m) * (a - m))
-        .sum();
-    let sse = (acc[0] + acc[1]) + (acc[2] + acc[3]) + tail;
-    let ar1 = rho.map(|rho| {
-        let one_m = 1.0 - rho * rho;
-        let mut prev = a[0] - m[0];
-        let mut s = one_m * prev * prev;
-        for (a, m) in a[1..].iter().zip(&m[1..]) {
-            let r = a - m;
-            let e = r - rho * prev;
-            s += e * e;
-            prev = r;
-        }
-        (s, 0.5 * one_m.ln())
-    });
-    (sse, ar1)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;

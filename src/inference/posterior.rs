@@ -35,7 +35,7 @@ use argmin::core::CostFunction;
 use nalgebra::DVector;
 use thiserror::Error;
 
-use super::likelihood::{marginal, residual_sums, Noise};
+use super::likelihood::{ar1_sum, marginal, sum_of_squares, Noise};
 use super::priors::{PriorError, Priors, RHO_BOUNDS};
 use crate::data::Aligned;
 use crate::model::{ForwardModel, Layout, ParamSpec, SimError};
@@ -277,9 +277,15 @@ impl<M: ForwardModel> Posterior<M> {
             {
                 return None;
             }
-            let (sse, ar1) = residual_sums(&self.data.a, &buf, rho);
-            let ln_l = match ar1 {
-                Some((s, jac)) => self.ln_const - 0.5 * n as f64 * s.ln() + jac,
+            for (m, a) in buf.iter_mut().zip(&self.data.a) {
+                *m = a - *m;
+            }
+            let sse = sum_of_squares(&buf);
+            let ln_l = match rho {
+                Some(rho) => {
+                    let (s, jac) = ar1_sum(&buf, rho);
+                    self.ln_const - 0.5 * n as f64 * s.ln() + jac
+                }
                 None => self.ln_const - 0.5 * n as f64 * sse.ln(),
             };
             Some((sse, ln_l))
