@@ -19,8 +19,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         .map_or("trilinear+lcfm+viscous", |s| s)
         .parse()?;
     let options = FitOptions {
-        // Intervals need far fewer draws than the default run gives: 20
-        // autocorrelation times over 4 ensembles is an ESS of some 2,500.
+        // Intervals need fewer draws than the default run gives: 20
+        // autocorrelation times over 2 ensembles of 72 walkers is an ESS
+        // of some 2,900. (The stop rule asks for 50 anyway, for the
+        // autocorrelation time estimate to be trusted.)
         sample: Some(SampleSettings::default().with_tau_multiple(20.0)?),
         ..FitOptions::default()
     };

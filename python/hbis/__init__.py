@@ -262,7 +262,7 @@ def fit(
     seed: int = 1,
     *,
     map_only: bool = False,
-    ensembles: int = 4,
+    ensembles: int = 2,
     walkers: Optional[int] = None,
     tau_multiple: float = 50.0,
     max_steps: int = 20_000,

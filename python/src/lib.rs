@@ -331,7 +331,7 @@ fn kept_arrays(
 #[pyfunction]
 #[pyo3(signature = (
     t, a, model="trilinear+lcfm+viscous", noise="white", seed=1, t0=None,
-    map_only=false, ensembles=4, walkers=None, tau_multiple=50.0,
+    map_only=false, ensembles=hbis::inference::sample::DEFAULT_ENSEMBLES, walkers=None, tau_multiple=50.0,
     max_steps=20_000, ess=None, moves=None, max_evals=200_000, evidence=false,
     forces=None, design_target=Some(0.5), thin=None, source="array", progress=None,
 ))]

@@ -52,11 +52,11 @@ pub struct Args {
     /// The MAP only: skip the posterior sampling.
     #[arg(long)]
     map_only: bool,
-    /// Walkers per ensemble (default max(32, 4 x parameters)).
+    /// Walkers per ensemble (default max(32, 8 x parameters)).
     #[arg(long)]
     walkers: Option<usize>,
     /// Independent ensembles (for R-hat; at least 2).
-    #[arg(long, default_value_t = 4)]
+    #[arg(long, default_value_t = hbis::inference::sample::DEFAULT_ENSEMBLES)]
     ensembles: usize,
     /// Run until the kept chain is this many autocorrelation times long
     /// (and at least 50, for the estimate to be trusted).

@@ -95,11 +95,16 @@ pub const RHAT_MAX: f64 = 1.01;
 /// The default moves (chosen by measurement: `docs/inference.md`).
 pub const DEFAULT_MOVES: &str = "gaussian:0.8,stretch:0.2";
 
+/// The default number of independent ensembles (chosen by measurement:
+/// `docs/inference.md`). Two give four split halves for R-hat; more
+/// ensembles of the same size cost as many more evaluations.
+pub const DEFAULT_ENSEMBLES: usize = 2;
+
 impl Default for SampleSettings {
     fn default() -> Self {
         Self {
             walkers: None,
-            ensembles: 4,
+            ensembles: DEFAULT_ENSEMBLES,
             chunk: 100,
             tau_multiple: 50.0,
             burn_multiple: 5.0,
@@ -112,7 +117,7 @@ impl Default for SampleSettings {
 
 impl SampleSettings {
     /// Walkers per ensemble (even, at least `2 dim`; default
-    /// `max(32, 4 dim)` rounded up to even).
+    /// `max(32, 8 dim)` rounded up to even).
     pub fn with_walkers(mut self, n: usize) -> Result<Self, SampleError> {
         if n < 4 || n % 2 != 0 {
             return Err(SampleError::Setting {
@@ -124,7 +129,8 @@ impl SampleSettings {
         Ok(self)
     }
 
-    /// Independent ensembles (default 4; R-hat needs at least 2).
+    /// Independent ensembles (default [`DEFAULT_ENSEMBLES`]; R-hat needs at
+    /// least 2).
     pub fn with_ensembles(mut self, n: usize) -> Result<Self, SampleError> {
         if n < 2 {
             return Err(SampleError::Setting {
@@ -212,7 +218,10 @@ impl SampleSettings {
     /// Walkers per ensemble for a posterior of `dim` parameters.
     pub fn walkers_for(&self, dim: usize) -> usize {
         self.walkers.unwrap_or_else(|| {
-            let n = 32.max(4 * dim);
+            // The Gaussian move fits a covariance to the other half:
+            // 4 dim walkers a half estimate it well enough to mix in
+            // about 10 steps on the demo record (docs/inference.md).
+            let n = 32.max(8 * dim);
             n + n % 2
         })
     }
@@ -942,7 +951,12 @@ pub fn sample_posterior<D: LogDensity>(
     let burn = burn_in(tau_max, settings, steps);
     let tau = all_taus(&chains, burn);
     let ess = ess_of(&tau, steps - burn, walkers, dim);
-    let rhat = rhats(&chains, burn, dim);
+    // A converged run stopped at the check that computed its R-hat on
+    // these very steps.
+    let rhat = match verdict.rhat.take() {
+        Some(r) if verdict.converged => r,
+        _ => rhats(&chains, burn, dim),
+    };
     let (converged, not_converged) = if verdict.converged {
         (true, String::new())
     } else if verdict.reason.is_empty() {
@@ -978,6 +992,8 @@ pub fn sample_posterior<D: LogDensity>(
 struct Verdict {
     converged: bool,
     reason: String,
+    /// R-hat per parameter, when the check computed it.
+    rhat: Option<Vec<f64>>,
 }
 
 /// Effective sample size per parameter, summed over ensembles.
@@ -1047,21 +1063,29 @@ fn stop_rule(chains: &[Chain], tau_max: f64, settings: &SampleSettings, steps: u
         }
     }
     // R-hat only once the rest holds: it is the costliest check.
+    let mut rhat = None;
     if reasons.is_empty() {
-        let worst = rhats(chains, burn, dim).into_iter().fold(0.0f64, |m, r| {
-            if r.is_nan() {
-                f64::INFINITY
-            } else {
-                m.max(r)
-            }
-        });
+        let r = rhats(chains, burn, dim);
+        let worst =
+            r.iter().copied().fold(
+                0.0f64,
+                |m, r| {
+                    if r.is_nan() {
+                        f64::INFINITY
+                    } else {
+                        m.max(r)
+                    }
+                },
+            );
         if !at_least(RHAT_MAX, worst) {
             reasons.push(format!("largest split R-hat {worst:.4} > {RHAT_MAX}"));
         }
+        rhat = Some(r);
     }
     Verdict {
         converged: reasons.is_empty(),
         reason: reasons.join("; "),
+        rhat,
     }
 }
 
@@ -1211,13 +1235,19 @@ mod tests {
 
     /// The stretch move alone: slow enough that the checkpoint tests'
     /// budgets end before convergence.
-    fn run_small(dir: Option<&Path>, max: usize, seed: u64) -> PosteriorSample {
-        let s = SampleSettings::default()
+    /// Four ensembles (the tests below corrupt four chain files) in
+    /// chunks of 50 steps.
+    fn small_settings() -> SampleSettings {
+        SampleSettings::default()
+            .with_ensembles(4)
+            .unwrap()
             .with_chunk(50)
             .unwrap()
-            .with_max_steps(max)
-            .unwrap()
-            .with_moves(Moves::parse("stretch").unwrap());
+            .with_moves(Moves::parse("stretch").unwrap())
+    }
+
+    fn run_small(dir: Option<&Path>, max: usize, seed: u64) -> PosteriorSample {
+        let s = small_settings().with_max_steps(max).unwrap();
         sample_posterior(
             &gaussian(),
             &names(),
@@ -1239,6 +1269,15 @@ mod tests {
         assert_eq!((&a.tau, &a.ess, &a.rhat), (&b.tau, &b.ess, &b.rhat));
         assert_eq!(a.acceptance, b.acceptance);
         assert_eq!((a.converged, a.evaluations), (b.converged, b.evaluations));
+    }
+
+    #[test]
+    fn a_converged_run_reports_the_r_hat_of_its_kept_steps() {
+        // The R-hat of the stopping check is reused: it must be that of
+        // the steps kept in the end.
+        let s = run_small(None, 20_000, 5);
+        assert!(s.converged, "{}", s.not_converged);
+        assert_eq!(s.rhat, rhats(&s.chains, s.burn, 3));
     }
 
     fn discarded(s: &PosteriorSample) -> &str {
@@ -1334,13 +1373,14 @@ mod tests {
         f.set_len((120 * RECORD + 17) as u64).unwrap();
         drop(f);
         // Inspecting the checkpoint leaves the file as it is.
-        let fp = {
-            let s = SampleSettings::default()
-                .with_chunk(50)
-                .unwrap()
-                .with_moves(Moves::parse("stretch").unwrap());
-            fingerprint(9, &s, &names(), &[1.0, -1.0, 0.0], &[0.2, 1.0, 3.0], "")
-        };
+        let fp = fingerprint(
+            9,
+            &small_settings(),
+            &names(),
+            &[1.0, -1.0, 0.0],
+            &[0.2, 1.0, 3.0],
+            "",
+        );
         let c = Checkpoint { dir: cp.clone() };
         assert!(matches!(
             c.restore(&fp, 32, 3, 4),

@@ -42,8 +42,9 @@ fn fit_samples_a_model_with_velocity_friction_and_an_offset() {
             "2",
             "--tau-multiple",
             "20",
-            // With the default 48 walkers the autocorrelation time is some
-            // 350 steps here (acceptance 0.08) and the run converges at the
+            // The default walkers for 12 parameters, written out: with
+            // the old default of 48 the autocorrelation time was some 350
+            // steps here (acceptance 0.08) and the run converged at the
             // edge of the default budget of 20,000 steps, or not at all;
             // with 96 it is some 130 and the run stops converged after
             // about 6,200 (docs/inference.md).
