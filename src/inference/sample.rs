@@ -220,7 +220,8 @@ impl SampleSettings {
         self.walkers.unwrap_or_else(|| {
             // The Gaussian move fits a covariance to the other half:
             // 4 dim walkers a half estimate it well enough to mix in
-            // about 10 steps on the demo record (docs/inference.md).
+            // about 13 steps on the benchmark's Test 5 record, against
+            // 33 with 2 dim (docs/inference.md).
             let n = 32.max(8 * dim);
             n + n % 2
         })
