@@ -1067,17 +1067,11 @@ fn stop_rule(chains: &[Chain], tau_max: f64, settings: &SampleSettings, steps: u
     let mut rhat = None;
     if reasons.is_empty() {
         let r = rhats(chains, burn, dim);
-        let worst =
-            r.iter().copied().fold(
-                0.0f64,
-                |m, r| {
-                    if r.is_nan() {
-                        f64::INFINITY
-                    } else {
-                        m.max(r)
-                    }
-                },
-            );
+        // A NaN R-hat counts as the worst.
+        let worst = r
+            .iter()
+            .map(|&x| if x.is_nan() { f64::INFINITY } else { x })
+            .fold(0.0, f64::max);
         if !at_least(RHAT_MAX, worst) {
             reasons.push(format!("largest split R-hat {worst:.4} > {RHAT_MAX}"));
         }
