@@ -427,7 +427,11 @@ impl LinearPhase {
         // fallback; done once |u - target| is at round-off level.
         let tol = 4.0 * f64::EPSILON * u0.abs().max(target.abs());
         let (mut lo, mut hi) = (0.0, t_hi);
-        let guess = hermite_root(f0, dir * v0 * t_hi, fh, dir * vh * t_hi) * t_hi;
+        let h2 = t_hi * t_hi;
+        let guess = hermite_root(
+            [f0, dir * v0 * t_hi, dir * self.accel(u0, v0) * h2],
+            [fh, dir * vh * t_hi, dir * self.accel(uh, vh) * h2],
+        ) * t_hi;
         let (ug, vg) = self.state_at(u0, v0, guess);
         let (mut t, mut v, mut f) = (guess, vg, dir * (ug - target));
         for _ in 0..100 {
@@ -438,6 +442,11 @@ impl LinearPhase {
                 lo = t;
             } else {
                 hi = t;
+            }
+            // Near the root the local series is exact to round-off and
+            // needs no sin, cos or exp.
+            if let Some((t1, v1)) = self.series_root(target + dir * f, v, target, t, lo, hi) {
+                return Reach::At { t: t1, v: v1 };
             }
             let d1 = dir * v;
             let mut next = 0.5 * (lo + hi);
@@ -469,6 +478,121 @@ impl LinearPhase {
     }
 }
 
+impl LinearPhase {
+    /// Where the Taylor series of `u` about the state `(u, v)` at time `t`
+    /// reaches `target` inside `(lo, hi)`, with the velocity there; `None`
+    /// when the root lies too far for the series to be exact to round-off
+    /// (or outside the bracket), so the caller evaluates the closed form.
+    ///
+    /// # Formula
+    ///
+    /// With `y_0 = u - target`, `y_1 = v`, `y_2 = a(u, v)` and, from the
+    /// differentiated equation of motion, `y_(n+2) = -2 alpha y_(n+1) - K
+    /// y_n`, the root `d` of `sum_n y_n d^n / n!` is found by Newton's
+    /// method. Every rate of the phase is at most `rho = |alpha| + w` in
+    /// modulus, so `y_n` grows like `rho^n` and the truncation error after
+    /// the degree-`N` term is about `(rho d)^(N+1) / (N+1)!` of the
+    /// amplitude in `u` and `(rho d)^N / N!` in `v / rho`: the degree is
+    /// chosen from `rho d` to keep both below `1e-17`.
+    ///
+    /// ```
+    /// use hbis::model::phase::LinearPhase;
+    /// // u = cos t reaches 0.5 at t = pi/3; start 0.001 s before it.
+    /// let p = LinearPhase::new(0.0, 1.0, 0.0);
+    /// let t0 = std::f64::consts::FRAC_PI_3 - 1e-3;
+    /// let (t, v) = p
+    ///     .series_root(t0.cos(), -t0.sin(), 0.5, t0, 0.0, 2.0)
+    ///     .unwrap();
+    /// assert!((t - std::f64::consts::FRAC_PI_3).abs() < 1e-15);
+    /// assert!((v + 0.75f64.sqrt()).abs() < 1e-15);
+    /// ```
+    pub fn series_root(
+        &self,
+        u: f64,
+        v: f64,
+        target: f64,
+        t: f64,
+        lo: f64,
+        hi: f64,
+    ) -> Option<(f64, f64)> {
+        let y0 = u - target;
+        if v == 0.0 {
+            return None;
+        }
+        let d0 = -y0 / v;
+        let rho = self.alpha.abs() + self.w;
+        let z = rho * d0.abs();
+        // The degree and the largest `rho d` it is exact for: the
+        // velocity, one order lower, needs (rho d)^N / N! < 1e-17.
+        let (degree, reach) = if z <= 1e-6 {
+            (3, 1e-6)
+        } else if z <= 1e-4 {
+            (4, 1e-4)
+        } else if z <= 7e-4 {
+            (5, 7e-4)
+        } else if z <= 2e-3 {
+            (6, 2e-3)
+        } else if z <= 1e-2 {
+            (8, 1e-2)
+        } else {
+            return None;
+        };
+        // Taylor coefficients y_n / n!.
+        let mut c = [0.0; 9];
+        let (mut prev, mut cur) = (v, self.accel(u, v));
+        c[0] = y0;
+        c[1] = v;
+        c[2] = 0.5 * cur;
+        for n in 3..=degree {
+            let next = -(2.0 * self.alpha * cur + self.k * prev);
+            c[n] = next * INV_FACTORIAL[n];
+            (prev, cur) = (cur, next);
+        }
+        let poly = |d: f64| {
+            let (mut p, mut dp) = (c[degree], 0.0);
+            for n in (0..degree).rev() {
+                dp = dp * d + p;
+                p = p * d + c[n];
+            }
+            (p, dp)
+        };
+        // Reversion of the series to third order, then Newton: the start
+        // is off by about z^4 of the step.
+        let (r2, r3) = (c[2] / v, c[3] / v);
+        let mut d = d0 * (1.0 - d0 * (r2 - d0 * (2.0 * r2 * r2 - r3)));
+        let mut converged = false;
+        for _ in 0..4 {
+            let (p, dp) = poly(d);
+            let step = p / dp;
+            d -= step;
+            // Quadratic convergence: what is left is about rho step^2.
+            if !(rho * step.abs() > 1e-9 && step.abs() > f64::EPSILON * (t + d).abs()) {
+                converged = true;
+                break;
+            }
+        }
+        // Near a reversal the root can lie farther than `y0 / v` said.
+        let t1 = t + d;
+        if !(converged && rho * d.abs() <= reach && t1 > lo && t1 < hi) {
+            return None;
+        }
+        Some((t1, poly(d).1))
+    }
+}
+
+/// `1 / n!` for the local series.
+const INV_FACTORIAL: [f64; 9] = [
+    1.0,
+    1.0,
+    1.0 / 2.0,
+    1.0 / 6.0,
+    1.0 / 24.0,
+    1.0 / 120.0,
+    1.0 / 720.0,
+    1.0 / 5040.0,
+    1.0 / 40320.0,
+];
+
 /// `(e^x - 1 - x) / x^2`, accurate for every `x` (series near 0).
 fn phi2(x: f64) -> f64 {
     if x.abs() < 0.05 {
@@ -484,21 +608,24 @@ fn phi2(x: f64) -> f64 {
     }
 }
 
-/// Root in `[0, 1]` of the cubic Hermite interpolant with values `f0 < 0 <=
-/// f1` and scaled slopes `d0, d1 >= 0` at the ends (Newton from the secant).
-fn hermite_root(f0: f64, d0: f64, f1: f64, d1: f64) -> f64 {
+/// Root in `[0, 1]` of the quintic Hermite interpolant with values `f0 <
+/// 0 <= f1`, slopes and second derivatives (scaled to the unit interval)
+/// at both ends: `[f, f', f'']` at 0 and at 1. Its error is of order
+/// `(rho h)^6 / 46080` of the amplitude, so that one evaluation of the
+/// closed form there usually leaves the root close enough for the local
+/// series.
+fn hermite_root(a: [f64; 3], b: [f64; 3]) -> f64 {
+    let ([f0, d0, e0], [f1, d1, e1]) = (a, b);
+    // Monomial coefficients of the interpolant.
+    let m3 = -10.0 * f0 - 6.0 * d0 - 1.5 * e0 + 0.5 * e1 - 4.0 * d1 + 10.0 * f1;
+    let m4 = 15.0 * f0 + 8.0 * d0 + 1.5 * e0 - e1 + 7.0 * d1 - 15.0 * f1;
+    let m5 = -6.0 * f0 - 3.0 * d0 - 0.5 * e0 + 0.5 * e1 - 3.0 * d1 + 6.0 * f1;
+    let m2 = 0.5 * e0;
     let mut s = (-f0 / (f1 - f0)).clamp(0.0, 1.0);
-    // A rough root is enough: Halley's method polishes it.
-    for _ in 0..3 {
-        let s2 = s * s;
-        let s3 = s2 * s;
-        let p = (2.0 * s3 - 3.0 * s2 + 1.0) * f0
-            + (s3 - 2.0 * s2 + s) * d0
-            + (3.0 * s2 - 2.0 * s3) * f1
-            + (s3 - s2) * d1;
-        let dp = (6.0 * s2 - 6.0 * s) * (f0 - f1)
-            + (3.0 * s2 - 4.0 * s + 1.0) * d0
-            + (3.0 * s2 - 2.0 * s) * d1;
+    // A rough root is enough: the caller polishes it.
+    for _ in 0..2 {
+        let p = f0 + s * (d0 + s * (m2 + s * (m3 + s * (m4 + s * m5))));
+        let dp = d0 + s * (2.0 * m2 + s * (3.0 * m3 + s * (4.0 * m4 + s * 5.0 * m5)));
         if dp <= 0.0 {
             break;
         }
@@ -726,10 +853,51 @@ mod tests {
         };
         let (u, vt) = p.state_at(0.1, 0.0, t);
         assert!((u + 0.05).abs() < 1e-15, "u = {u}, t = {t}, tr = {tr}");
-        assert_eq!(v, vt);
+        assert!((v - vt).abs() < 1e-15, "v = {v} against {vt}");
         assert!(matches!(
             p.time_to_reach(0.1, 0.0, -1.0, -5.0, tr, None),
             Reach::Beyond { .. }
         ));
+    }
+
+    /// In every regime and for targets all along the way to the reversal
+    /// (so the search ends in the local series from every distance), the
+    /// time found puts the closed form on the target, and the velocity
+    /// returned is the closed form's there.
+    #[test]
+    fn threshold_search_is_exact_in_every_regime() {
+        // (alpha, K, C): under, near critical, over, K = 0, K < 0, undamped.
+        let cases = [
+            (0.1, 10.0, 0.3),
+            (0.05, 14.2, 0.02),
+            (0.5, 0.25 + 1e-9, -0.1),
+            (1.0, 0.2, 0.05),
+            (0.3, 0.0, -0.2),
+            (0.2, -0.5, -0.1),
+            (0.0, 4.0, -1.0),
+            (3.0, 400.0, 0.5),
+        ];
+        for &(a, k, c) in &cases {
+            let p = LinearPhase::new(a, k, c);
+            let (u0, v0) = (0.1, 0.4);
+            let t_hi = p.reversal_time(u0, v0, 1.0).map_or(1.0, |t| t.min(1.0));
+            let (u_hi, _) = p.state_at(u0, v0, t_hi);
+            for frac in [1e-6, 0.01, 0.2, 0.5, 0.9, 0.999, 1.0 - 1e-9] {
+                let x = u0 + frac * (u_hi - u0);
+                let Reach::At { t, v } = p.time_to_reach(u0, v0, 1.0, x, t_hi, None) else {
+                    panic!("{a} {k} {c}: {x} is on the way")
+                };
+                let (u, vt) = p.state_at(u0, v0, t);
+                let scale = u0.abs().max(x.abs());
+                assert!(
+                    (u - x).abs() <= 16.0 * f64::EPSILON * scale,
+                    "{a} {k} {c} frac {frac}: u {u} vs {x}"
+                );
+                assert!(
+                    (v - vt).abs() <= 1e-14 * v0.abs(),
+                    "{a} {k} {c} frac {frac}: v {v} vs {vt}"
+                );
+            }
+        }
     }
 }

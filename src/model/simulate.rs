@@ -13,7 +13,7 @@ use serde::Serialize;
 use super::error::SimError;
 use super::friction::Friction;
 use super::params::Params;
-use super::phase::{Basis, LinearPhase, Reach, Step};
+use super::phase::{LinearPhase, Reach};
 use super::spec::{DamperKind, FrictionKind, ModelSpec, SpringKind};
 use super::spring::{Spring, SpringBranch};
 
@@ -475,47 +475,84 @@ const ACCEL_REANCHOR: usize = 256;
 
 /// The hot path: only the acceleration, which obeys the homogeneous two-term
 /// recurrence `a[n+2] = p a[n+1] + q a[n]` within a phase. Interleaved lanes
-/// (a stride-LANES recurrence) keep the dependency chains short; the one-step
-/// bases are cached per effective stiffness, which recurs from phase to phase.
+/// (a stride-LANES recurrence) keep the dependency chains short; what the
+/// recurrence needs depends on the effective stiffness alone, which recurs
+/// from phase to phase, so it is cached.
 struct AccelSampler<'a> {
     start: f64,
     dt: f64,
     next: usize,
     out: &'a mut [f64],
-    cache: [(f64, Basis); 8],
+    cache: [(f64, Lanes); 8],
     cached: usize,
     alpha: f64,
 }
 
+/// What the lanes need for one stiffness `K`, over the grid step `h`.
+///
+/// The pair `(a, a')` obeys the homogeneous equation, so `a(t + k h)` is the
+/// first row of the homogeneous propagator's `k`-th power applied to
+/// `(a(t), a'(t))`: the `2 LANES` seeds of the lanes are independent
+/// products, not a chain of steps.
+#[derive(Debug, Clone, Copy)]
+struct Lanes {
+    /// First row of `M^k`, `k = 0 .. 2 LANES`.
+    row: [(f64, f64); 2 * LANES],
+    /// The recurrence over `LANES` steps: `a[n+2L] = p a[n+L] + q a[n]`.
+    p: f64,
+    q: f64,
+}
+
+impl Lanes {
+    fn new(alpha: f64, k: f64, h: f64) -> Self {
+        let b = LinearPhase::new(alpha, k, 0.0).basis(h);
+        let m = [
+            [b.ec + alpha * b.es, b.es],
+            [-k * b.es, b.ec - alpha * b.es],
+        ];
+        let mut row = [(1.0, 0.0); 2 * LANES];
+        for n in 1..2 * LANES {
+            let (r1, r2) = row[n - 1];
+            row[n] = (r1 * m[0][0] + r2 * m[1][0], r1 * m[0][1] + r2 * m[1][1]);
+        }
+        // p, q over one step, doubled: r1^2 + r2^2 = p^2 + 2q, (r1 r2)^2 = q^2.
+        let (mut p, mut q) = (2.0 * b.ec, -b.d * b.d);
+        let mut span = 1;
+        while span < LANES {
+            (p, q) = (p * p + 2.0 * q, -(q * q));
+            span *= 2;
+        }
+        Self { row, p, q }
+    }
+}
+
 impl<'a> AccelSampler<'a> {
     fn new(start: f64, dt: f64, alpha: f64, out: &'a mut [f64]) -> Self {
-        let zero = Basis {
-            ec: 0.0,
-            es: 0.0,
-            e: 0.0,
-            d: 0.0,
+        let empty = Lanes {
+            row: [(0.0, 0.0); 2 * LANES],
+            p: 0.0,
+            q: 0.0,
         };
         Self {
             start,
             dt,
             next: 0,
             out,
-            cache: [(f64::NAN, zero); 8],
+            cache: [(f64::NAN, empty); 8],
             cached: 0,
             alpha,
         }
     }
 
-    fn step(&mut self, lin: &LinearPhase) -> Step {
-        let k = lin.stiffness();
-        if let Some((_, b)) = self.cache[..self.cached].iter().find(|(kc, _)| *kc == k) {
-            return lin.step_from(b);
+    fn lanes(&mut self, k: f64) -> Lanes {
+        if let Some((_, l)) = self.cache[..self.cached].iter().find(|(kc, _)| *kc == k) {
+            return *l;
         }
-        let b = LinearPhase::new(self.alpha, k, 0.0).basis(self.dt);
+        let l = Lanes::new(self.alpha, k, self.dt);
         let slot = self.cached % self.cache.len();
-        self.cache[slot] = (k, b);
+        self.cache[slot] = (k, l);
         self.cached = (self.cached + 1).min(self.cache.len());
-        lin.step_from(&b)
+        l
     }
 }
 
@@ -536,37 +573,36 @@ impl PhaseSink for AccelSampler<'_> {
             self.out[start..end].fill(0.0);
             return;
         }
-        let s1 = self.step(&ph.lin);
-        let sl = s1.doubled().doubled();
+        let k = ph.lin.stiffness();
+        let lanes = self.lanes(k);
         let mut i = start;
         while i < end {
             let stop = end.min(i + ACCEL_REANCHOR);
-            // 2 LANES exact values seed the stride-LANES lanes.
-            let (mut u, mut v) = ph.state_at(self.start + i as f64 * self.dt);
-            let seed = (stop - i).min(2 * LANES);
-            for k in 0..seed {
-                if k > 0 {
-                    (u, v) = s1.apply(u, v);
-                }
-                self.out[i + k] = ph.lin.accel(u, v);
+            let (u, v) = ph.state_at(self.start + i as f64 * self.dt);
+            let a = ph.lin.accel(u, v);
+            let jerk = -(2.0 * self.alpha * a + k * v);
+            let seeds = (stop - i).min(2 * LANES);
+            for (slot, &(r1, r2)) in self.out[i..i + seeds].iter_mut().zip(&lanes.row) {
+                *slot = r1 * a + r2 * jerk;
             }
             if stop - i > 2 * LANES {
                 let mut prev = [0.0; LANES];
                 let mut cur = [0.0; LANES];
                 prev.copy_from_slice(&self.out[i..i + LANES]);
                 cur.copy_from_slice(&self.out[i + LANES..i + 2 * LANES]);
+                let (p, q) = (lanes.p, lanes.q);
                 let mut chunks = self.out[i + 2 * LANES..stop].chunks_exact_mut(LANES);
                 for chunk in &mut chunks {
                     let mut a = [0.0; LANES];
                     for k in 0..LANES {
-                        a[k] = sl.p * cur[k] + sl.q * prev[k];
+                        a[k] = p * cur[k] + q * prev[k];
                     }
                     chunk.copy_from_slice(&a);
                     prev = cur;
                     cur = a;
                 }
                 for (k, slot) in chunks.into_remainder().iter_mut().enumerate() {
-                    *slot = sl.p * cur[k] + sl.q * prev[k];
+                    *slot = p * cur[k] + q * prev[k];
                 }
             }
             i = stop;
