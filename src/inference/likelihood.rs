@@ -119,9 +119,57 @@ pub fn sum_of_squares(r: &[f64]) -> f64 {
     (acc[0] + acc[1]) + (acc[2] + acc[3]) + tail
 }
 
+/// `sum (a_i - m_i)^2` in one pass, without storing the residuals: the
+/// same sums in the same order as [`sum_of_squares`] of the residuals, so
+/// the same value to the last bit.
+///
+/// ```
+/// use hbis::inference::likelihood::{sum_of_squared_differences, sum_of_squares};
+/// let (a, m) = ([1.0, 2.0, 3.0, 4.0, 5.0], [0.5, 2.5, 2.0, 4.0, 3.0]);
+/// let r: Vec<f64> = a.iter().zip(&m).map(|(a, m)| a - m).collect();
+/// assert_eq!(sum_of_squared_differences(&a, &m), sum_of_squares(&r));
+/// assert_eq!(sum_of_squares(&r), 0.25 + 0.25 + 1.0 + 0.0 + 4.0);
+/// ```
+pub fn sum_of_squared_differences(a: &[f64], m: &[f64]) -> f64 {
+    assert_eq!(a.len(), m.len(), "two series of one length");
+    let (ca, cm) = (a.chunks_exact(4), m.chunks_exact(4));
+    let tail: f64 = ca
+        .remainder()
+        .iter()
+        .zip(cm.remainder())
+        .map(|(a, m)| (a - m) * (a - m))
+        .sum();
+    let mut acc = [0.0f64; 4];
+    for (x, y) in ca.zip(cm) {
+        for k in 0..4 {
+            let r = x[k] - y[k];
+            acc[k] += r * r;
+        }
+    }
+    (acc[0] + acc[1]) + (acc[2] + acc[3]) + tail
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The one-pass sum is the two-pass sum to the last bit, for every
+    /// length modulo the four accumulators.
+    #[test]
+    fn one_pass_sum_of_squares_is_the_two_pass_sum() {
+        let mut x = 0.3f64;
+        let mut next = || {
+            x = (x * 3.7 + 0.123).fract();
+            x - 0.5
+        };
+        for n in [0usize, 1, 2, 3, 4, 5, 7, 8, 9, 2001] {
+            let a: Vec<f64> = (0..n).map(|_| next()).collect();
+            let m: Vec<f64> = (0..n).map(|_| 1e-3 * next()).collect();
+            let r: Vec<f64> = a.iter().zip(&m).map(|(a, m)| a - m).collect();
+            let (one, two) = (sum_of_squared_differences(&a, &m), sum_of_squares(&r));
+            assert_eq!(one.to_bits(), two.to_bits(), "n = {n}: {one} vs {two}");
+        }
+    }
 
     /// The marginal equals a numerical integral over sigma of the Gaussian
     /// likelihood times 1/sigma.

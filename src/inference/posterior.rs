@@ -35,7 +35,7 @@ use argmin::core::CostFunction;
 use nalgebra::DVector;
 use thiserror::Error;
 
-use super::likelihood::{ar1_sum, marginal, sum_of_squares, Noise};
+use super::likelihood::{ar1_sum, marginal, sum_of_squared_differences, sum_of_squares, Noise};
 use super::priors::{PriorError, Priors, RHO_BOUNDS};
 use crate::data::Aligned;
 use crate::model::{ForwardModel, Layout, ParamSpec, SimError};
@@ -277,17 +277,17 @@ impl<M: ForwardModel> Posterior<M> {
             {
                 return None;
             }
+            // White noise needs only the sum: one pass, nothing stored.
+            let Some(rho) = rho else {
+                let sse = sum_of_squared_differences(&self.data.a, &buf);
+                return Some((sse, self.ln_const - 0.5 * n as f64 * sse.ln()));
+            };
             for (m, a) in buf.iter_mut().zip(&self.data.a) {
                 *m = a - *m;
             }
             let sse = sum_of_squares(&buf);
-            let ln_l = match rho {
-                Some(rho) => {
-                    let (s, jac) = ar1_sum(&buf, rho);
-                    self.ln_const - 0.5 * n as f64 * s.ln() + jac
-                }
-                None => self.ln_const - 0.5 * n as f64 * sse.ln(),
-            };
+            let (s, jac) = ar1_sum(&buf, rho);
+            let ln_l = self.ln_const - 0.5 * n as f64 * s.ln() + jac;
             Some((sse, ln_l))
         });
         let Some((sse, log_likelihood)) = result else {

@@ -453,7 +453,15 @@ impl<F: FnMut(usize, f64, f64, &Phase)> PhaseSink for GridSampler<F> {
 /// First sample index at or after `t` (the grid is `start + i dt`), not
 /// before `from`.
 fn first_index_at_or_after(t: f64, start: f64, dt: f64, from: usize, n: usize) -> usize {
-    let mut e = (((t - start) / dt).ceil().max(0.0) as usize).clamp(from, n);
+    // A ceiling by hand: `f64::ceil` is a libm call on baseline x86-64.
+    let x = ((t - start) / dt).max(0.0);
+    let c = x as usize;
+    let mut e = if (c as f64) < x {
+        c.saturating_add(1)
+    } else {
+        c
+    }
+    .clamp(from, n);
     // The division may be off by an ulp: settle on the exact comparison.
     while e > from && start + (e - 1) as f64 * dt >= t {
         e -= 1;
