@@ -421,10 +421,11 @@ impl LinearPhase {
         if fh < 0.0 {
             return Reach::Beyond { u: uh, v: vh };
         }
-        // Start from the cubic Hermite interpolant of the two end states,
-        // then Halley's method (the second derivative is the acceleration,
-        // free from the state) inside a shrinking bracket, bisection as
-        // fallback; done once |u - target| is at round-off level.
+        // Start from the quintic Hermite interpolant of the two end states
+        // (the accelerations are free), finish on the local series once
+        // the root is near enough; until then Halley's method (the second
+        // derivative is the acceleration) inside a shrinking bracket,
+        // bisection as fallback; done once |u - target| is at round-off.
         let tol = 4.0 * f64::EPSILON * u0.abs().max(target.abs());
         let (mut lo, mut hi) = (0.0, t_hi);
         let h2 = t_hi * t_hi;
