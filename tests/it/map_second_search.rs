@@ -1,9 +1,13 @@
 //! A MAP whose residual is structured gets a second search from new starts,
 //! and the better MAP is kept; a MAP with a white residual gets none. The
 //! records are two of `examples/map_robustness.rs` (random parameter sets
-//! beyond Table 8.1): on record 517 the first search stops in a local
+//! beyond Table 8.1): on record 558 the first search stops in a local
 //! basin (a structured residual) and the second reaches the noise floor;
-//! on record 502 the first search reaches it.
+//! on record 502 the first search reaches it. Which records land in a
+//! local basin follows the search's path, which a change of the forward
+//! model at round-off can move: when one does, these records are picked
+//! again from the example's output (`second search kept` and not
+//! `MISSED`; record 517 served until the faster threshold search).
 
 #[allow(dead_code)]
 #[path = "../../examples/map_robustness.rs"]
@@ -15,7 +19,7 @@ use bin::{hbis, stderr};
 
 #[test]
 fn a_structured_residual_triggers_a_second_search_that_is_kept_when_higher() {
-    let o = map_robustness::fit_one(517);
+    let o = map_robustness::fit_one(558);
     assert_eq!(o.second, Some(true), "second search: {:?}", o.second);
     assert!(o.reached(), "e2 / floor {}", o.ratio);
     let o = map_robustness::fit_one(502);
@@ -27,7 +31,7 @@ fn a_structured_residual_triggers_a_second_search_that_is_kept_when_higher() {
 /// error, and the kept MAP leaves no `structured-residual` warning.
 #[test]
 fn fit_json_reports_the_second_search() {
-    let (_, _, syn) = map_robustness::record(517);
+    let (_, _, syn) = map_robustness::record(558);
     let dir = tempfile::tempdir().unwrap();
     std::fs::write(dir.path().join("rec.csv"), syn.record.to_csv()).unwrap();
     let o = hbis(
@@ -41,7 +45,7 @@ fn fit_json_reports_the_second_search() {
             "--out",
             "out",
             "--seed",
-            "517",
+            "558",
             "--map-only",
         ],
     );
