@@ -204,10 +204,44 @@ fn demo_runs_on_the_embedded_default() {
     assert!(out.contains("residual displacement: 3.04 mm"), "{out}");
     assert!(out.contains("m  =     1333.1 t"), "{out}");
     assert!(d.path().join("demo/test5.csv").exists());
+    ladder_recovers_the_full_model(&d.path().join("demo/ladder/ladder.json"), &out);
     earthquake_quantiles_match_a_brute_force_loop(&d.path().join("demo/predict"));
     if cfg!(feature = "figures") {
         let png = std::fs::metadata(d.path().join("demo/test5.png")).unwrap();
         assert!(png.len() > 10_000);
+    }
+}
+
+/// The demo's ladder (a Test 8 record of the full model, 1.5 % noise, from
+/// `bilinear+coulomb`, every catalog effect a candidate) recovers the model
+/// that made the record, with `e2` and BIC falling at every step, ends
+/// within 15 % of the noise floor the demo prints, and supports nothing
+/// more.
+fn ladder_recovers_the_full_model(path: &Path, stdout: &str) {
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap();
+    let steps = v["steps"].as_array().unwrap();
+    let models: Vec<&str> = steps.iter().map(|s| s["model"].as_str().unwrap()).collect();
+    assert_eq!(v["final_model"], "trilinear+lcfm+viscous", "{models:?}");
+    for w in steps.windows(2) {
+        for k in ["e2", "bic"] {
+            let (a, b) = (w[0][k].as_f64().unwrap(), w[1][k].as_f64().unwrap());
+            assert!(b < a, "{k} rose from {a} to {b}: {models:?}");
+        }
+    }
+    // The criticism section's floor (the fit section prints its own).
+    let floor: f64 = stdout
+        .split("Model criticism:")
+        .nth(1)
+        .and_then(|r| r.split("noise floor e2 = ").nth(1))
+        .and_then(|r| r.split(')').next())
+        .and_then(|x| x.parse().ok())
+        .unwrap_or_else(|| panic!("no noise floor in {stdout}"));
+    let last = steps.last().unwrap();
+    let e2 = last["e2"].as_f64().unwrap();
+    assert!(e2 <= 1.15 * floor, "e2 {e2} vs floor {floor}");
+    for c in last["candidates"].as_array().unwrap() {
+        assert_eq!(c["supported"], false, "{}", c["effect"]);
     }
 }
 

@@ -21,6 +21,7 @@ const SEEDS: u64 = 3;
 const RUN_SD: f64 = 0.83;
 
 #[test]
+#[ignore = "slow: run by the full suite, cargo test -- --include-ignored (docs/testing.md)"]
 fn laplace_evidence_agrees_with_tmcmc() {
     let spec: ModelSpec = "bilinear+coulomb+viscous".parse().unwrap();
     let truth = spec
