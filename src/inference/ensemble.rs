@@ -43,6 +43,7 @@
 //! ```
 
 use std::cell::OnceCell;
+use std::time::{Duration, Instant};
 
 use nalgebra::{DMatrix, DVector};
 use rand::{Rng, RngExt};
@@ -134,29 +135,44 @@ impl<F: Fn(&[f64]) -> f64 + Sync> LogDensity for FnDensity<F> {
 /// Gaussian fit computed once, when a move first asks for it.
 #[derive(Debug)]
 pub struct Complement<'a> {
-    walkers: Vec<&'a [f64]>,
+    /// `dim` coordinates per walker, walker after walker.
+    walkers: &'a [f64],
+    dim: usize,
     gaussian: OnceCell<Option<GaussianFit>>,
 }
 
 impl<'a> Complement<'a> {
-    /// The half-ensemble's positions.
-    pub fn new(walkers: Vec<&'a [f64]>) -> Self {
+    /// The half-ensemble's positions: `dim` coordinates per walker, walker
+    /// after walker (`dim > 0`).
+    pub fn new(walkers: &'a [f64], dim: usize) -> Self {
+        assert!(dim > 0, "a walker has at least one coordinate");
         Self {
             walkers,
+            dim,
             gaussian: OnceCell::new(),
         }
     }
 
-    /// The walkers.
-    pub fn walkers(&self) -> &[&'a [f64]] {
-        &self.walkers
+    /// Number of walkers.
+    pub fn len(&self) -> usize {
+        self.walkers.len() / self.dim
+    }
+
+    /// True when there are no walkers.
+    pub fn is_empty(&self) -> bool {
+        self.walkers.is_empty()
+    }
+
+    /// Position of walker `i`.
+    pub fn walker(&self, i: usize) -> &'a [f64] {
+        &self.walkers[i * self.dim..(i + 1) * self.dim]
     }
 
     /// Their sample mean and covariance (`None` when the covariance is
     /// singular, e.g. fewer walkers than dimensions).
     pub fn gaussian(&self) -> Option<&GaussianFit> {
         self.gaussian
-            .get_or_init(|| GaussianFit::of(&self.walkers))
+            .get_or_init(|| GaussianFit::of(self.walkers, self.dim))
             .as_ref()
     }
 }
@@ -165,58 +181,96 @@ impl<'a> Complement<'a> {
 /// covariance.
 #[derive(Debug, Clone)]
 pub struct GaussianFit {
-    mean: DVector<f64>,
-    chol: DMatrix<f64>,
+    mean: Vec<f64>,
+    /// The lower Cholesky factor `L`, row-major `dim x dim`.
+    chol: Vec<f64>,
 }
 
+/// Coordinates held on the stack by [`GaussianFit::mahalanobis2`]; more
+/// take one allocation.
+const STACK_DIM: usize = 32;
+
 impl GaussianFit {
-    /// The sample mean and (unbiased) covariance of `points`.
-    pub fn of(points: &[&[f64]]) -> Option<Self> {
-        let (n, d) = (points.len(), points.first()?.len());
-        if n <= d {
+    /// The sample mean and (unbiased) covariance of `points`, `dim`
+    /// coordinates per point, point after point.
+    pub fn of(points: &[f64], dim: usize) -> Option<Self> {
+        let n = points.len() / dim.max(1);
+        if dim == 0 || n <= dim {
             return None;
         }
-        let mean = DVector::from_fn(d, |k, _| {
-            points.iter().map(|p| p[k]).sum::<f64>() / n as f64
-        });
-        let mut cov = DMatrix::<f64>::zeros(d, d);
-        for p in points {
-            let x = DVector::from_column_slice(p) - &mean;
+        let mean: Vec<f64> = (0..dim)
+            .map(|k| points.iter().skip(k).step_by(dim).sum::<f64>() / n as f64)
+            .collect();
+        let mut cov = DMatrix::<f64>::zeros(dim, dim);
+        for p in points.chunks_exact(dim) {
+            let x = DVector::from_iterator(dim, p.iter().zip(&mean).map(|(x, m)| x - m));
             cov += &x * x.transpose();
         }
         cov /= (n - 1) as f64;
-        let chol = cov.cholesky()?.l();
+        let l = cov.cholesky()?.l();
+        let chol = (0..dim * dim).map(|i| l[(i / dim, i % dim)]).collect();
         Some(Self { mean, chol })
     }
 
-    /// A draw.
-    pub fn sample<R: Rng + ?Sized>(&self, rng: &mut R) -> Vec<f64> {
-        let z = DVector::from_fn(self.mean.len(), |_, _| rng.sample::<f64, _>(StandardNormal));
-        (&self.mean + &self.chol * z).iter().copied().collect()
+    /// The dimension.
+    pub fn dim(&self) -> usize {
+        self.mean.len()
     }
 
-    /// `-1/2` the squared Mahalanobis distance of `x` (the log-density up
-    /// to its constant, which cancels in every Hastings factor).
-    pub fn ln_kernel(&self, x: &[f64]) -> f64 {
-        let r = DVector::from_column_slice(x) - &self.mean;
-        let z = self
-            .chol
-            .solve_lower_triangular(&r)
-            .expect("a Cholesky factor has a non-zero diagonal");
-        -0.5 * z.norm_squared()
+    /// A draw `m + scale L z`, `z` standard normal, written into `out`;
+    /// returns `|z|^2`.
+    pub fn sample_into<R: Rng + ?Sized>(&self, scale: f64, rng: &mut R, out: &mut [f64]) -> f64 {
+        let d = self.dim();
+        let mut z2 = 0.0;
+        for slot in out.iter_mut() {
+            let z: f64 = rng.sample(StandardNormal);
+            *slot = z;
+            z2 += z * z;
+        }
+        // Row i of L z uses z_0..z_i only: bottom-up, each z_i is read
+        // before its slot is overwritten.
+        for i in (0..d).rev() {
+            let row = &self.chol[i * d..i * d + i + 1];
+            let lz: f64 = row.iter().zip(&out[..=i]).map(|(l, z)| l * z).sum();
+            out[i] = self.mean[i] + scale * lz;
+        }
+        z2
+    }
+
+    /// The squared Mahalanobis distance `|L^-1 (x - m)|^2`.
+    pub fn mahalanobis2(&self, x: &[f64]) -> f64 {
+        let d = self.dim();
+        let mut stack = [0.0; STACK_DIM];
+        let mut heap = Vec::new();
+        let z: &mut [f64] = if d <= STACK_DIM {
+            &mut stack[..d]
+        } else {
+            heap.resize(d, 0.0);
+            &mut heap
+        };
+        let mut sum = 0.0;
+        for i in 0..d {
+            let row = &self.chol[i * d..i * d + i];
+            let dot: f64 = row.iter().zip(&z[..i]).map(|(l, z)| l * z).sum();
+            z[i] = (x[i] - self.mean[i] - dot) / self.chol[i * d + i];
+            sum += z[i] * z[i];
+        }
+        sum
     }
 }
 
 /// A proposal for one walker given the complementary half-ensemble.
 pub trait Move: Sync {
-    /// Returns the proposed position and the log of the Hastings factor
-    /// that multiplies the density ratio in the acceptance probability.
+    /// Writes the proposed position into `out` (as long as `walker`) and
+    /// returns the log of the Hastings factor that multiplies the density
+    /// ratio in the acceptance probability.
     fn propose<R: Rng + ?Sized>(
         &self,
         walker: &[f64],
         complement: &Complement,
         rng: &mut R,
-    ) -> (Vec<f64>, f64);
+        out: &mut [f64],
+    ) -> f64;
 }
 
 /// Goodman & Weare's stretch move: `y = c + z (x - c)` with `c` a random
@@ -251,13 +305,15 @@ impl Move for StretchMove {
         walker: &[f64],
         complement: &Complement,
         rng: &mut R,
-    ) -> (Vec<f64>, f64) {
-        let complement = complement.walkers();
+        out: &mut [f64],
+    ) -> f64 {
         let u: f64 = rng.random();
         let z = ((self.a - 1.0) * u + 1.0).powi(2) / self.a;
-        let c = complement[rng.random_range(0..complement.len())];
-        let y = walker.iter().zip(c).map(|(x, c)| c + z * (x - c)).collect();
-        (y, (walker.len() as f64 - 1.0) * z.ln())
+        let c = complement.walker(rng.random_range(0..complement.len()));
+        for ((y, x), c) in out.iter_mut().zip(walker).zip(c) {
+            *y = c + z * (x - c);
+        }
+        (walker.len() as f64 - 1.0) * z.ln()
     }
 }
 
@@ -281,24 +337,21 @@ impl Move for DeMove {
         walker: &[f64],
         complement: &Complement,
         rng: &mut R,
-    ) -> (Vec<f64>, f64) {
-        let complement = complement.walkers();
+        out: &mut [f64],
+    ) -> f64 {
         let n = complement.len();
         let i = rng.random_range(0..n);
         let mut j = rng.random_range(0..n - 1);
         if j >= i {
             j += 1;
         }
+        let (ci, cj) = (complement.walker(i), complement.walker(j));
         let gamma = 2.38 / (2.0 * walker.len() as f64).sqrt();
-        let y = walker
-            .iter()
-            .enumerate()
-            .map(|(k, x)| {
-                let e: f64 = rng.sample(StandardNormal);
-                x + gamma * (complement[i][k] - complement[j][k]) + self.sigma * e
-            })
-            .collect();
-        (y, 0.0)
+        for (k, (y, x)) in out.iter_mut().zip(walker).enumerate() {
+            let e: f64 = rng.sample(StandardNormal);
+            *y = x + gamma * (ci[k] - cj[k]) + self.sigma * e;
+        }
+        0.0
     }
 }
 
@@ -349,19 +402,16 @@ impl Move for GaussianMove {
         walker: &[f64],
         complement: &Complement,
         rng: &mut R,
-    ) -> (Vec<f64>, f64) {
+        out: &mut [f64],
+    ) -> f64 {
         match complement.gaussian() {
             Some(g) => {
                 let s = self.scale;
-                let mut y = g.sample(rng);
-                for (v, m) in y.iter_mut().zip(g.mean.iter()) {
-                    *v = m + s * (*v - m);
-                }
-                let ln_q = |x: &[f64]| g.ln_kernel(x) / (s * s);
-                let factor = ln_q(walker) - ln_q(&y);
-                (y, factor)
+                // y = m + s L z, so |L^-1 (y - m)|^2 / s^2 = |z|^2.
+                let z2 = g.sample_into(s, rng, out);
+                0.5 * (z2 - g.mahalanobis2(walker) / (s * s))
             }
-            None => StretchMove::default().propose(walker, complement, rng),
+            None => StretchMove::default().propose(walker, complement, rng, out),
         }
     }
 }
@@ -404,11 +454,12 @@ impl Move for MoveKind {
         walker: &[f64],
         complement: &Complement,
         rng: &mut R,
-    ) -> (Vec<f64>, f64) {
+        out: &mut [f64],
+    ) -> f64 {
         match self {
-            MoveKind::Stretch(m) => m.propose(walker, complement, rng),
-            MoveKind::De(m) => m.propose(walker, complement, rng),
-            MoveKind::Gaussian(m) => m.propose(walker, complement, rng),
+            MoveKind::Stretch(m) => m.propose(walker, complement, rng, out),
+            MoveKind::De(m) => m.propose(walker, complement, rng, out),
+            MoveKind::Gaussian(m) => m.propose(walker, complement, rng, out),
         }
     }
 }
@@ -476,27 +527,30 @@ impl Move for Moves {
         walker: &[f64],
         complement: &Complement,
         rng: &mut R,
-    ) -> (Vec<f64>, f64) {
+        out: &mut [f64],
+    ) -> f64 {
         if self.moves.len() == 1 {
-            return self.moves[0].0.propose(walker, complement, rng);
+            return self.moves[0].0.propose(walker, complement, rng, out);
         }
         let mut u = rng.random::<f64>() * self.total;
         for (m, w) in &self.moves {
             if u < *w {
-                return m.propose(walker, complement, rng);
+                return m.propose(walker, complement, rng, out);
             }
             u -= w;
         }
         self.moves[self.moves.len() - 1]
             .0
-            .propose(walker, complement, rng)
+            .propose(walker, complement, rng, out)
     }
 }
 
 /// Walker positions and their log-densities.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Ensemble {
-    positions: Vec<Vec<f64>>,
+    /// `dim` coordinates per walker, walker after walker.
+    positions: Vec<f64>,
+    dim: usize,
     log_prob: Vec<f64>,
 }
 
@@ -536,23 +590,22 @@ impl Ensemble {
         if let Some(walker) = log_prob.iter().position(|v| *v == f64::NEG_INFINITY) {
             return Err(SamplerError::Outside { walker });
         }
-        Ok(Self {
-            positions,
-            log_prob,
-        })
+        Ok(Self::from_parts(positions, log_prob))
     }
 
-    /// Restores an ensemble from saved positions and log-densities.
+    /// Restores an ensemble from saved positions (all of one length) and
+    /// log-densities.
     pub fn from_parts(positions: Vec<Vec<f64>>, log_prob: Vec<f64>) -> Self {
         Self {
-            positions,
+            dim: positions.first().map_or(0, Vec::len),
+            positions: positions.concat(),
             log_prob,
         }
     }
 
-    /// Walker positions.
-    pub fn positions(&self) -> &[Vec<f64>] {
-        &self.positions
+    /// Position of walker `i`.
+    pub fn position(&self, i: usize) -> &[f64] {
+        &self.positions[i * self.dim..(i + 1) * self.dim]
     }
 
     /// Log-densities of the walkers.
@@ -562,12 +615,12 @@ impl Ensemble {
 
     /// Number of walkers.
     pub fn len(&self) -> usize {
-        self.positions.len()
+        self.log_prob.len()
     }
 
     /// True when there are no walkers.
     pub fn is_empty(&self) -> bool {
-        self.positions.is_empty()
+        self.log_prob.is_empty()
     }
 }
 
@@ -641,9 +694,7 @@ impl Chain {
 
     /// Appends the ensemble's current state as one step.
     fn push(&mut self, ens: &Ensemble) {
-        for p in &ens.positions {
-            self.samples.extend_from_slice(p);
-        }
+        self.samples.extend_from_slice(&ens.positions);
         self.log_prob.extend_from_slice(&ens.log_prob);
         self.steps += 1;
     }
@@ -738,38 +789,45 @@ impl<Mv: Move> EnsembleSampler<Mv> {
         density: &D,
         rng: &mut R,
     ) -> Result<Vec<u64>, SamplerError> {
-        let n = ens.len();
-        let half = n / 2;
-        let mut accepted = vec![0u64; n];
+        let mut accepted = vec![0u64; ens.len()];
+        self.step_with(ens, density, rng, &mut Scratch::new(ens), &mut accepted)?;
+        Ok(accepted)
+    }
+
+    /// One step in reused buffers, adding the acceptances to `accepted`.
+    fn step_with<D: LogDensity, R: Rng + ?Sized>(
+        &self,
+        ens: &mut Ensemble,
+        density: &D,
+        rng: &mut R,
+        s: &mut Scratch,
+        accepted: &mut [u64],
+    ) -> Result<(), SamplerError> {
+        let (dim, half) = (ens.dim, ens.len() / 2);
         for h in 0..2 {
-            let active: Vec<usize> = (h * half..(h + 1) * half).collect();
-            let other = (1 - h) * half..(2 - h) * half;
-            let proposals: Vec<(Vec<f64>, f64, f64)> = {
-                let complement =
-                    Complement::new(other.map(|i| ens.positions[i].as_slice()).collect());
-                active
-                    .iter()
-                    .map(|&i| {
-                        let (y, ln_factor) = self.mv.propose(&ens.positions[i], &complement, rng);
-                        let u: f64 = rng.random();
-                        (y, ln_factor, u)
-                    })
-                    .collect()
-            };
-            let lps: Vec<f64> = proposals
-                .par_iter()
-                .map(|(y, _, _)| density.ln_density(y))
-                .collect::<Result<_, _>>()?;
-            for ((&i, (y, ln_factor, u)), lp) in active.iter().zip(proposals).zip(lps) {
-                let ln_ratio = ln_factor + lp - ens.log_prob[i];
-                if lp > f64::NEG_INFINITY && u.ln() < ln_ratio {
-                    ens.positions[i] = y;
+            let active = h * half..(h + 1) * half;
+            let other = (1 - h) * half * dim..(2 - h) * half * dim;
+            {
+                let complement = Complement::new(&ens.positions[other], dim);
+                for (k, i) in active.clone().enumerate() {
+                    let out = &mut s.proposals[k * dim..(k + 1) * dim];
+                    s.factors[k] = self.mv.propose(ens.position(i), &complement, rng, out);
+                    s.uniforms[k] = rng.random();
+                }
+            }
+            evaluate(density, &s.proposals, dim, &mut s.lps)?;
+            for (k, i) in active.enumerate() {
+                let lp = s.lps[k];
+                let ln_ratio = s.factors[k] + lp - ens.log_prob[i];
+                if lp > f64::NEG_INFINITY && s.uniforms[k].ln() < ln_ratio {
+                    ens.positions[i * dim..(i + 1) * dim]
+                        .copy_from_slice(&s.proposals[k * dim..(k + 1) * dim]);
                     ens.log_prob[i] = lp;
                     accepted[i] += 1;
                 }
             }
         }
-        Ok(accepted)
+        Ok(())
     }
 
     /// `steps` steps from `ens`, recorded after each step.
@@ -782,15 +840,71 @@ impl<Mv: Move> EnsembleSampler<Mv> {
     ) -> Result<Chain, SamplerError> {
         let mut chain = Chain::new(ens.len(), density.dim());
         chain.samples.reserve(steps * ens.len() * density.dim());
+        chain.log_prob.reserve(steps * ens.len());
+        let mut scratch = Scratch::new(ens);
         for _ in 0..steps {
-            let acc = self.step(ens, density, rng)?;
-            for (a, b) in chain.accepted.iter_mut().zip(acc) {
-                *a += b;
-            }
+            self.step_with(ens, density, rng, &mut scratch, &mut chain.accepted)?;
             chain.push(ens);
         }
         Ok(chain)
     }
+}
+
+/// Buffers of one half-step: proposals, Hastings factors, acceptance
+/// uniforms and log-densities.
+struct Scratch {
+    proposals: Vec<f64>,
+    factors: Vec<f64>,
+    uniforms: Vec<f64>,
+    lps: Vec<f64>,
+}
+
+impl Scratch {
+    fn new(ens: &Ensemble) -> Self {
+        let half = ens.len() / 2;
+        Self {
+            proposals: vec![0.0; half * ens.dim],
+            factors: vec![0.0; half],
+            uniforms: vec![0.0; half],
+            lps: vec![0.0; half],
+        }
+    }
+}
+
+/// Below this much work per half-step, spreading the evaluations over
+/// threads costs more than it saves (a rayon fork-join is some
+/// microseconds).
+const PARALLEL_WORK: Duration = Duration::from_micros(20);
+
+/// Log-densities of the proposals (`dim` coordinates each) into `lps`.
+/// The first is evaluated alone and timed: a cheap density is evaluated
+/// serially, an expensive one in parallel. Only the schedule depends on the
+/// timing; the values, and so the chain, do not.
+fn evaluate<D: LogDensity>(
+    density: &D,
+    proposals: &[f64],
+    dim: usize,
+    lps: &mut [f64],
+) -> Result<(), SamplerError> {
+    let Some((first, rest)) = lps.split_first_mut() else {
+        return Ok(());
+    };
+    let clock = Instant::now();
+    *first = density.ln_density(&proposals[..dim])?;
+    let work = clock.elapsed() * rest.len() as u32;
+    let rest_proposals = proposals[dim..].chunks_exact(dim);
+    if work < PARALLEL_WORK {
+        for (lp, y) in rest.iter_mut().zip(rest_proposals) {
+            *lp = density.ln_density(y)?;
+        }
+        return Ok(());
+    }
+    rest.par_iter_mut()
+        .zip(proposals[dim..].par_chunks_exact(dim))
+        .try_for_each(|(lp, y)| {
+            *lp = density.ln_density(y)?;
+            Ok(())
+        })
 }
 
 #[cfg(test)]
@@ -1079,10 +1193,7 @@ mod tests {
         rosenbrock_moments(mixture(), 3000);
     }
 
-    /// In the full suite only: the default moves' test below runs the
-    /// Gaussian move at weight 0.8.
     #[test]
-    #[ignore = "slow: run by the full suite, cargo test -- --include-ignored (docs/testing.md)"]
     fn gaussian_move_reproduces_rosenbrock_moments() {
         rosenbrock_moments(GaussianMove::default(), 5000);
     }
