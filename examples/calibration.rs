@@ -3,7 +3,7 @@
 //! counts how often each parameter's 90 % interval holds the truth.
 //!
 //! ```sh
-//! cargo run --release --example calibration -- 100 trilinear+lcfm+viscous
+//! cargo run --release --features examples --example calibration -- 100 trilinear+lcfm+viscous
 //! ```
 //! The result recorded in `docs/inference.md` came from that command.
 

@@ -5,7 +5,7 @@
 //! in `docs/components.md` come from this example.
 //!
 //! ```sh
-//! cargo run --release --example component_confusion
+//! cargo run --release --features examples --example component_confusion
 //! ```
 
 use hbis::criticism::{caution, diagnose_model};

@@ -5,7 +5,7 @@
 //! a line per record as it finishes, then the table.
 //!
 //! ```sh
-//! cargo run --release --example criticism_calibration -- 20 5 2026 [outcomes.json]
+//! cargo run --release --features examples --example criticism_calibration -- 20 5 2026 [outcomes.json]
 //! ```
 //! Arguments: null records per noise kind (20), records per hidden effect
 //! (5; eight effects), seed (2026), and optionally a file for the outcomes

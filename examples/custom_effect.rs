@@ -14,7 +14,7 @@
 //! like a built-in one.
 //!
 //! ```sh
-//! cargo run --release --example custom_effect
+//! cargo run --release --features examples --example custom_effect
 //! ```
 
 use std::sync::Arc;

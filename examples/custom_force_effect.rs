@@ -13,7 +13,7 @@
 //! with a gap spring and runs the ladder from a model without it.
 //!
 //! ```sh
-//! cargo run --release --example custom_force_effect
+//! cargo run --release --features examples --example custom_force_effect
 //! ```
 
 use std::sync::Arc;

@@ -3,7 +3,7 @@
 //! isolator displacement against a capacity.
 //!
 //! ```sh
-//! cargo run --release --example earthquake -- [pga_m_s2] [capacity_m]
+//! cargo run --release --features examples --example earthquake -- [pga_m_s2] [capacity_m]
 //! ```
 //! The record is a synthetic Test 5 made on the spot (1.5 % noise).
 

@@ -4,7 +4,7 @@
 //!
 //! ```sh
 //! cargo run --release -- demo   # writes hbis-demo/record-hidden.csv
-//! cargo run --release --example evidence_seeds -- hbis-demo/record-hidden.csv trilinear+lcfm+viscous 4
+//! cargo run --release --features examples --example evidence_seeds -- hbis-demo/record-hidden.csv trilinear+lcfm+viscous 4
 //! ```
 
 use hbis::criticism::fit_model;

@@ -2,7 +2,7 @@
 //! identifiability verdict.
 //!
 //! ```sh
-//! cargo run --release --example fit_posterior -- path/to/record.csv [model]
+//! cargo run --release --features examples --example fit_posterior -- path/to/record.csv [model]
 //! ```
 //! Without arguments it fits a synthetic Test 5 record made on the spot.
 

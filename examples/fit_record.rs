@@ -2,7 +2,7 @@
 //! posterior, find the MAP.
 //!
 //! ```sh
-//! cargo run --release --example fit_record -- path/to/record.csv trilinear+lcfm+viscous
+//! cargo run --release --features examples --example fit_record -- path/to/record.csv trilinear+lcfm+viscous
 //! ```
 //! Without arguments it fits a synthetic Test 5 record made on the spot.
 

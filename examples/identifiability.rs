@@ -3,7 +3,7 @@
 //! second yield `u3` (its swing never reaches the third branch).
 //!
 //! ```sh
-//! cargo run --release --example identifiability [seed]
+//! cargo run --release --features examples --example identifiability [seed]
 //! ```
 //! Prints each record's ranking (by posterior sd over prior sd), the sd
 //! ratio of every parameter, the explanation of the weakest, and the design

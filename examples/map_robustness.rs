@@ -9,7 +9,7 @@
 //! residual triggers ([`hbis::study::SecondSearch`]).
 //!
 //! ```sh
-//! cargo run --release --example map_robustness -- 62 500
+//! cargo run --release --features examples --example map_robustness -- 62 500
 //! ```
 //! Arguments: records (62) and the first seed (500); record `k` uses seed
 //! `first + k` for its parameters, its noise and its fit. docs/inference.md

@@ -6,7 +6,7 @@
 //! explains).
 //!
 //! ```sh
-//! cargo run --release --example uq_study
+//! cargo run --release --features examples --example uq_study
 //! ```
 
 use hbis::data::synthesize;
