@@ -871,36 +871,31 @@ impl Scratch {
     }
 }
 
-/// Below this much work per half-step, spreading the evaluations over
-/// threads costs more than it saves (a rayon fork-join is some
-/// microseconds).
-const PARALLEL_WORK: Duration = Duration::from_micros(20);
+/// Proposals are evaluated serially until this much time has passed; the
+/// rest, if any, in parallel. A rayon fork-join costs some microseconds,
+/// more than a cheap density's whole half-step.
+const SERIAL_BUDGET: Duration = Duration::from_micros(5);
 
-/// Log-densities of the proposals (`dim` coordinates each) into `lps`.
-/// The first is evaluated alone and timed: a cheap density is evaluated
-/// serially, an expensive one in parallel. Only the schedule depends on the
-/// timing; the values, and so the chain, do not.
+/// Log-densities of the proposals (`dim` coordinates each) into `lps`:
+/// serially while the time spent stays under [`SERIAL_BUDGET`], the rest in
+/// parallel. A proposal outside the prior returns at once, so no single
+/// evaluation's time decides. Only the schedule depends on the timing; the
+/// values, and so the chain, do not.
 fn evaluate<D: LogDensity>(
     density: &D,
     proposals: &[f64],
     dim: usize,
     lps: &mut [f64],
 ) -> Result<(), SamplerError> {
-    let Some((first, rest)) = lps.split_first_mut() else {
-        return Ok(());
-    };
     let clock = Instant::now();
-    *first = density.ln_density(&proposals[..dim])?;
-    let work = clock.elapsed() * rest.len() as u32;
-    let rest_proposals = proposals[dim..].chunks_exact(dim);
-    if work < PARALLEL_WORK {
-        for (lp, y) in rest.iter_mut().zip(rest_proposals) {
-            *lp = density.ln_density(y)?;
-        }
-        return Ok(());
+    let mut done = 0;
+    while done < lps.len() && clock.elapsed() < SERIAL_BUDGET {
+        lps[done] = density.ln_density(&proposals[done * dim..(done + 1) * dim])?;
+        done += 1;
     }
-    rest.par_iter_mut()
-        .zip(proposals[dim..].par_chunks_exact(dim))
+    lps[done..]
+        .par_iter_mut()
+        .zip(proposals[done * dim..].par_chunks_exact(dim))
         .try_for_each(|(lp, y)| {
             *lp = density.ln_density(y)?;
             Ok(())
