@@ -38,64 +38,96 @@ pub fn split_rhat(sequences: &[Vec<f64>]) -> f64 {
     if halves.len() < 2 || halves[0].len() < 2 {
         return f64::NAN;
     }
-    let bulk = basic_rhat(&z_scores(&halves));
-    let all: Vec<f64> = halves.iter().flat_map(|h| h.iter().copied()).collect();
-    let med = median(&all);
+    let scores = NormalScores::new(halves.iter().map(|h| h.len()).sum());
+    let bulk = basic_rhat(&scores.of(&halves));
+    let mut all: Vec<f64> = halves.iter().flat_map(|h| h.iter().copied()).collect();
+    let med = median(&mut all);
     let folded: Vec<Vec<f64>> = halves
         .iter()
         .map(|h| h.iter().map(|v| (v - med).abs()).collect())
         .collect();
     let folded_refs: Vec<&[f64]> = folded.iter().map(Vec::as_slice).collect();
-    let tail = basic_rhat(&z_scores(&folded_refs));
+    let tail = basic_rhat(&scores.of(&folded_refs));
     bulk.max(tail)
 }
 
-fn median(x: &[f64]) -> f64 {
-    let mut v = x.to_vec();
-    v.sort_unstable_by(f64::total_cmp);
-    let n = v.len();
+/// The median, by selection (the order of `x` is lost).
+fn median(x: &mut [f64]) -> f64 {
+    let n = x.len();
+    let (below, mid, _) = x.select_nth_unstable_by(n / 2, f64::total_cmp);
+    let mid = *mid;
     if n % 2 == 1 {
-        v[n / 2]
+        mid
     } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
+        // The largest of the lower half is the other middle value.
+        let lower = below.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        0.5 * (lower + mid)
     }
 }
 
-/// Normal scores of the pooled ranks (average ranks for ties, Blom's offset).
-fn z_scores(seqs: &[&[f64]]) -> Vec<Vec<f64>> {
-    // Values with their position in the concatenated sequences: two
-    // thirds of the bytes of (value, sequence, index) to sort, and the
-    // sort is most of the cost.
-    let mut all: Vec<(f64, usize)> = seqs
-        .iter()
-        .flat_map(|s| s.iter().copied())
-        .zip(0..)
-        .collect();
-    all.sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
-    let n = all.len() as f64;
-    let normal = Normal::new(0.0, 1.0).expect("standard normal");
-    let mut flat = vec![0.0; all.len()];
-    let mut k = 0;
-    while k < all.len() {
-        let mut e = k;
-        while e + 1 < all.len() && all[e + 1].0 == all[k].0 {
-            e += 1;
-        }
-        let rank = 0.5 * ((k + 1) as f64 + (e + 1) as f64);
-        let z = normal.inverse_cdf((rank - 0.375) / (n + 0.25));
-        for item in &all[k..=e] {
-            flat[item.1] = z;
-        }
-        k = e + 1;
+/// Normal scores `Phi^-1((r - 3/8) / (n + 1/4))` of the ranks `r = 1..n`
+/// of `n` pooled draws (Blom's offset): the bulk and the tail R-hat rank
+/// the same number of draws, so the table is computed once.
+struct NormalScores {
+    normal: Normal,
+    z: Vec<f64>,
+}
+
+impl NormalScores {
+    fn new(n: usize) -> Self {
+        let normal = Normal::new(0.0, 1.0).expect("standard normal");
+        let z = (1..=n).map(|r| blom(&normal, r as f64, n)).collect();
+        Self { normal, z }
     }
-    let mut rest = flat.as_slice();
-    seqs.iter()
-        .map(|s| {
-            let (head, tail) = rest.split_at(s.len());
-            rest = tail;
-            head.to_vec()
-        })
-        .collect()
+
+    /// Normal scores of the pooled ranks of `seqs` (average ranks for
+    /// ties), in the shape of `seqs`.
+    fn of(&self, seqs: &[&[f64]]) -> Vec<Vec<f64>> {
+        // Values with their position in the concatenated sequences: two
+        // thirds of the bytes of (value, sequence, index) to sort, and the
+        // sort is most of the cost.
+        let mut all: Vec<(f64, usize)> = seqs
+            .iter()
+            .flat_map(|s| s.iter().copied())
+            .zip(0..)
+            .collect();
+        debug_assert_eq!(all.len(), self.z.len());
+        all.sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
+        let mut flat = vec![0.0; all.len()];
+        let mut k = 0;
+        while k < all.len() {
+            let mut e = k;
+            while e + 1 < all.len() && all[e + 1].0 == all[k].0 {
+                e += 1;
+            }
+            let z = if e == k {
+                self.z[k]
+            } else {
+                blom(
+                    &self.normal,
+                    0.5 * ((k + 1) as f64 + (e + 1) as f64),
+                    all.len(),
+                )
+            };
+            for item in &all[k..=e] {
+                flat[item.1] = z;
+            }
+            k = e + 1;
+        }
+        let mut rest = flat.as_slice();
+        seqs.iter()
+            .map(|s| {
+                let (head, tail) = rest.split_at(s.len());
+                rest = tail;
+                head.to_vec()
+            })
+            .collect()
+    }
+}
+
+/// The normal score of rank `rank` among `n` (Blom's offset).
+fn blom(normal: &Normal, rank: f64, n: usize) -> f64 {
+    normal.inverse_cdf((rank - 0.375) / (n as f64 + 0.25))
 }
 
 fn basic_rhat(seqs: &[Vec<f64>]) -> f64 {
@@ -128,6 +160,37 @@ mod tests {
                 shift + scale * <StandardNormal as Distribution<f64>>::sample(&StandardNormal, rng)
             })
             .collect()
+    }
+
+    #[test]
+    fn the_median_by_selection_is_the_sorted_middle() {
+        for n in 1..40 {
+            let mut x: Vec<f64> = (0..n).map(|i| ((i * 7919) % 101) as f64).collect();
+            let mut sorted = x.clone();
+            sorted.sort_by(f64::total_cmp);
+            let want = if n % 2 == 1 {
+                sorted[n / 2]
+            } else {
+                0.5 * (sorted[n / 2 - 1] + sorted[n / 2])
+            };
+            assert_eq!(median(&mut x), want, "n = {n}");
+        }
+    }
+
+    /// Ranks are pooled over the sequences, and tied values share the
+    /// average of their ranks.
+    #[test]
+    fn normal_scores_pool_ranks_and_average_ties() {
+        let normal = Normal::new(0.0, 1.0).unwrap();
+        let blom = |r: f64| normal.inverse_cdf((r - 0.375) / 5.25);
+        let z = NormalScores::new(5).of(&[&[3.0, 1.0], &[1.0, 2.0, 5.0]]);
+        assert_eq!(
+            z,
+            vec![
+                vec![blom(4.0), blom(1.5)],
+                vec![blom(1.5), blom(3.0), blom(5.0)]
+            ]
+        );
     }
 
     #[test]

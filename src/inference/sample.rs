@@ -950,10 +950,13 @@ pub fn sample_posterior<D: LogDensity>(
     }
     let steps = chains[0].steps();
     let burn = burn_in(tau_max, settings, steps);
-    let tau = all_taus(&chains, burn);
+    // A converged run stopped at the check that computed its R-hat (and,
+    // stopped by ESS, its taus) on these very steps.
+    let tau = match verdict.tau.take() {
+        Some(t) if verdict.converged => t,
+        _ => all_taus(&chains, burn),
+    };
     let ess = ess_of(&tau, steps - burn, walkers, dim);
-    // A converged run stopped at the check that computed its R-hat on
-    // these very steps.
     let rhat = match verdict.rhat.take() {
         Some(r) if verdict.converged => r,
         _ => rhats(&chains, burn, dim),
@@ -995,6 +998,8 @@ struct Verdict {
     reason: String,
     /// R-hat per parameter, when the check computed it.
     rhat: Option<Vec<f64>>,
+    /// `tau[e][k]` on the kept steps, when the check computed them.
+    tau: Option<Vec<Vec<f64>>>,
 }
 
 /// Effective sample size per parameter, summed over ensembles.
@@ -1011,7 +1016,7 @@ fn ess_of(tau: &[Vec<f64>], kept_steps: usize, walkers: usize, dim: usize) -> Ve
 /// strongly correlated anyway.
 fn rhats(chains: &[Chain], burn: usize, dim: usize) -> Vec<f64> {
     let (steps, walkers) = (chains[0].steps(), chains[0].walkers());
-    let stride = ((steps - burn) * walkers / 20_000).max(1);
+    let stride = ((steps - burn) * walkers).div_ceil(20_000).max(1);
     (0..dim)
         .into_par_iter()
         .map(|k| {
@@ -1045,6 +1050,7 @@ fn stop_rule(chains: &[Chain], tau_max: f64, settings: &SampleSettings, steps: u
         ));
     }
     let dim = chains[0].dim();
+    let mut taus = None;
     match settings.ess {
         Some(target) => {
             let tau = all_taus(chains, burn);
@@ -1053,6 +1059,7 @@ fn stop_rule(chains: &[Chain], tau_max: f64, settings: &SampleSettings, steps: u
             if !at_least(least, target) {
                 reasons.push(format!("smallest ESS {least:.0} < {target:.0}"));
             }
+            taus = Some(tau);
         }
         None => {
             if !at_least(kept, settings.tau_multiple * tau_max) {
@@ -1081,6 +1088,7 @@ fn stop_rule(chains: &[Chain], tau_max: f64, settings: &SampleSettings, steps: u
         converged: reasons.is_empty(),
         reason: reasons.join("; "),
         rhat,
+        tau: taus,
     }
 }
 
