@@ -266,6 +266,17 @@ impl Aligned {
         model.accel_grid_into(theta, self.lag, self.dt, out)
     }
 
+    /// `sum_i (a_i - model_i)^2` at `theta` on this record's samples, where
+    /// the model forms it without storing its acceleration
+    /// ([`ForwardModel::sse_grid`]); `None` otherwise.
+    pub fn model_sse<M: ForwardModel + ?Sized>(
+        &self,
+        model: &M,
+        theta: &[f64],
+    ) -> Option<Result<f64, SimError>> {
+        model.sse_grid(theta, self.lag, self.dt, &self.a)
+    }
+
     /// Time of sample `i` in the record's clock (s).
     pub fn time(&self, i: usize) -> f64 {
         self.t_first + i as f64 * self.dt

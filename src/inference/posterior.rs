@@ -265,7 +265,48 @@ impl<M: ForwardModel> Posterior<M> {
         }
         let n = self.data.a.len();
         let rho = self.noise_part(theta).first().copied();
-        let result = BUFFER.with(|cell| {
+        // White noise needs only the sum: formed as the model is sampled
+        // where the model can, else in one pass over the stored samples.
+        let fused = match rho {
+            None => self.data.model_sse(&self.model, self.model_part(theta)),
+            Some(_) => None,
+        };
+        let result = match fused {
+            // A model that refuses the parameters (or cannot finish them)
+            // puts no mass there.
+            Some(sse) => sse
+                .ok()
+                .map(|sse| (sse, self.ln_const - 0.5 * n as f64 * sse.ln())),
+            None => self.sampled_likelihood(theta, rho),
+        };
+        let Some((sse, log_likelihood)) = result else {
+            return Ok(Evaluation::outside(log_prior));
+        };
+        let ev = Evaluation {
+            log_prior,
+            log_likelihood,
+            log_posterior: log_prior + log_likelihood,
+            sse,
+            e2: sse / self.energy,
+        };
+        if ev.log_posterior.is_nan() || ev.e2.is_nan() {
+            return Err(PosteriorError::NaN {
+                theta: theta.to_vec(),
+            });
+        }
+        Ok(ev)
+    }
+
+    /// The log-posterior alone.
+    pub fn log_posterior(&self, theta: &[f64]) -> Result<f64, PosteriorError> {
+        Ok(self.evaluate(theta)?.log_posterior)
+    }
+
+    /// `(sse, log-likelihood)` from the model's acceleration sampled into
+    /// a buffer; `None` where the model refuses the parameters.
+    fn sampled_likelihood(&self, theta: &[f64], rho: Option<f64>) -> Option<(f64, f64)> {
+        let n = self.data.a.len();
+        BUFFER.with(|cell| {
             let mut buf = cell.borrow_mut();
             buf.resize(n, 0.0);
             // A model that refuses the parameters (or cannot finish them) puts
@@ -289,28 +330,7 @@ impl<M: ForwardModel> Posterior<M> {
             let (s, jac) = ar1_sum(&buf, rho);
             let ln_l = self.ln_const - 0.5 * n as f64 * s.ln() + jac;
             Some((sse, ln_l))
-        });
-        let Some((sse, log_likelihood)) = result else {
-            return Ok(Evaluation::outside(log_prior));
-        };
-        let ev = Evaluation {
-            log_prior,
-            log_likelihood,
-            log_posterior: log_prior + log_likelihood,
-            sse,
-            e2: sse / self.energy,
-        };
-        if ev.log_posterior.is_nan() || ev.e2.is_nan() {
-            return Err(PosteriorError::NaN {
-                theta: theta.to_vec(),
-            });
-        }
-        Ok(ev)
-    }
-
-    /// The log-posterior alone.
-    pub fn log_posterior(&self, theta: &[f64]) -> Result<f64, PosteriorError> {
-        Ok(self.evaluate(theta)?.log_posterior)
+        })
     }
 }
 

@@ -372,6 +372,25 @@ impl ForwardModel for Model {
         Ok(())
     }
 
+    /// Fused where the closed form samples the motion and no output
+    /// component changes it.
+    fn sse_grid(
+        &self,
+        theta: &[f64],
+        start: f64,
+        dt: f64,
+        data: &[f64],
+    ) -> Option<Result<f64, SimError>> {
+        if !(self.closed_form && self.outputs.is_empty()) {
+            return None;
+        }
+        let sse = self
+            .system(theta)
+            .map_err(SimError::from)
+            .and_then(|s| s.sse_grid(start, dt, data, &SimOptions::default()));
+        Some(sse)
+    }
+
     fn in_support(&self, theta: &[f64]) -> bool {
         theta.len() == self.layout.len() && self.spec.in_support(self.layout.values(theta, CORE))
     }

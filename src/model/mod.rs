@@ -80,6 +80,21 @@ pub trait ForwardModel: Send + Sync {
         self.accel_grid_into(theta, 0.0, dt, out)
     }
 
+    /// `sum_i (data_i - a_i)^2` over the grid `t_i = start + i dt`, where
+    /// the model forms it without storing the acceleration (the white-noise
+    /// likelihood needs only this sum); `None` where it cannot, and the
+    /// caller samples and sums. Default: `None`.
+    fn sse_grid(
+        &self,
+        theta: &[f64],
+        start: f64,
+        dt: f64,
+        data: &[f64],
+    ) -> Option<Result<f64, SimError>> {
+        let _ = (theta, start, dt, data);
+        None
+    }
+
     /// Whether `theta` lies where the model is identifiable at all; the
     /// posterior puts zero prior mass elsewhere. Default: everywhere.
     fn in_support(&self, theta: &[f64]) -> bool {
@@ -106,6 +121,20 @@ impl ForwardModel for ModelSpec {
     ) -> Result<(), SimError> {
         let p = self.params_from_slice(theta)?;
         System::new(self, &p).accel_grid_into(start, dt, out, &SimOptions::default())
+    }
+
+    fn sse_grid(
+        &self,
+        theta: &[f64],
+        start: f64,
+        dt: f64,
+        data: &[f64],
+    ) -> Option<Result<f64, SimError>> {
+        let sse = self
+            .params_from_slice(theta)
+            .map_err(SimError::from)
+            .and_then(|p| System::new(self, &p).sse_grid(start, dt, data, &SimOptions::default()));
+        Some(sse)
     }
 
     /// A tri-linear spring needs `u3 < u0`: released short of its third
