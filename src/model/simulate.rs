@@ -768,16 +768,20 @@ mod tests {
     use super::*;
     use crate::model::Response;
 
+    /// Every spring, friction and damper kind, each with a Table 8.1
+    /// column.
+    const SPECS: [(&str, u32); 4] = [
+        ("trilinear+lcfm+viscous", 5),
+        ("bilinear+coulomb", 3),
+        ("trilinear", 8),
+        ("linear+viscous", 6),
+    ];
+
     /// The hot path (acceleration recurrence) and the full response (state
     /// propagator) sample the same record.
     #[test]
     fn accel_into_matches_the_full_response() {
-        for (spec, test) in [
-            ("trilinear+lcfm+viscous", 5),
-            ("bilinear+coulomb", 3),
-            ("trilinear", 8),
-            ("linear+viscous", 6),
-        ] {
+        for (spec, test) in SPECS {
             let spec: ModelSpec = spec.parse().unwrap();
             let p = spec.restrict(&Params::table_8_1(test).unwrap()).unwrap();
             for &(dt, n) in &[(0.005, 2001usize), (0.0007, 30_000), (0.05, 7)] {
@@ -805,12 +809,7 @@ mod tests {
     /// re-anchored stretches and lane remainders, and a shifted start.
     #[test]
     fn sse_grid_is_the_sum_over_the_sampled_acceleration() {
-        for (spec, test) in [
-            ("trilinear+lcfm+viscous", 5),
-            ("bilinear+coulomb", 3),
-            ("trilinear", 8),
-            ("linear+viscous", 6),
-        ] {
+        for (spec, test) in SPECS {
             let spec: ModelSpec = spec.parse().unwrap();
             let p = spec.restrict(&Params::table_8_1(test).unwrap()).unwrap();
             let sys = System::new(&spec, &p);
