@@ -263,7 +263,6 @@ impl<M: ForwardModel> Posterior<M> {
         if log_prior == f64::NEG_INFINITY {
             return Ok(Evaluation::outside(log_prior));
         }
-        let n = self.data.a.len();
         let rho = self.noise_part(theta).first().copied();
         // White noise needs only the sum: formed as the model is sampled
         // where the model can, else in one pass over the stored samples.
@@ -274,9 +273,7 @@ impl<M: ForwardModel> Posterior<M> {
         let result = match fused {
             // A model that refuses the parameters (or cannot finish them)
             // puts no mass there.
-            Some(sse) => sse
-                .ok()
-                .map(|sse| (sse, self.ln_const - 0.5 * n as f64 * sse.ln())),
+            Some(sse) => sse.ok().map(|sse| (sse, self.ln_marginal(sse))),
             None => self.sampled_likelihood(theta, rho),
         };
         let Some((sse, log_likelihood)) = result else {
@@ -302,6 +299,12 @@ impl<M: ForwardModel> Posterior<M> {
         Ok(self.evaluate(theta)?.log_posterior)
     }
 
+    /// The likelihood with `sigma` integrated out, for a (pre-whitened)
+    /// sum of squares `s` over the record's samples.
+    fn ln_marginal(&self, s: f64) -> f64 {
+        self.ln_const - 0.5 * self.data.a.len() as f64 * s.ln()
+    }
+
     /// `(sse, log-likelihood)` from the model's acceleration sampled into
     /// a buffer; `None` where the model refuses the parameters.
     fn sampled_likelihood(&self, theta: &[f64], rho: Option<f64>) -> Option<(f64, f64)> {
@@ -321,14 +324,14 @@ impl<M: ForwardModel> Posterior<M> {
             // White noise needs only the sum: one pass, nothing stored.
             let Some(rho) = rho else {
                 let sse = sum_of_squared_differences(&self.data.a, &buf);
-                return Some((sse, self.ln_const - 0.5 * n as f64 * sse.ln()));
+                return Some((sse, self.ln_marginal(sse)));
             };
             for (m, a) in buf.iter_mut().zip(&self.data.a) {
                 *m = a - *m;
             }
             let sse = sum_of_squares(&buf);
             let (s, jac) = ar1_sum(&buf, rho);
-            let ln_l = self.ln_const - 0.5 * n as f64 * s.ln() + jac;
+            let ln_l = self.ln_marginal(s) + jac;
             Some((sse, ln_l))
         })
     }
