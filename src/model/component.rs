@@ -131,6 +131,55 @@ pub struct Kinematics {
     pub travel: f64,
 }
 
+/// Quantities of the model a component may read besides its own
+/// parameters (per unit mass, as every force here).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Quantities {
+    /// `k0/m = (2 pi f0)^2`: the rubber bearing's initial stiffness per
+    /// unit mass (1/s^2).
+    pub k0: f64,
+    /// `u0`: the displacement the mass is held at before the release (m);
+    /// `0` for a response from rest (an earthquake).
+    pub u0: f64,
+}
+
+/// A state variable of a component with memory (a relaxing element's
+/// internal displacement, a hysteretic variable, a temperature).
+#[derive(Debug, Clone, PartialEq)]
+pub struct StateSpec {
+    /// Name in outputs (e.g. `q_m`).
+    pub name: String,
+    /// SI unit.
+    pub unit: String,
+    /// One line: the physical meaning.
+    pub meaning: String,
+}
+
+impl StateSpec {
+    /// A state with its name, unit and meaning.
+    pub fn new(name: &str, unit: &str, meaning: &str) -> Self {
+        Self {
+            name: name.to_string(),
+            unit: unit.to_string(),
+            meaning: meaning.to_string(),
+        }
+    }
+}
+
+/// What a component sees besides the kinematics: the time since the
+/// release, its own state variables (empty for a component without memory)
+/// and the model's [`Quantities`].
+#[derive(Debug, Clone, Copy)]
+pub struct Memory<'a> {
+    /// Time since the release (s).
+    pub t: f64,
+    /// The component's own state variables, in the order of
+    /// [`ForceComponent::states`].
+    pub x: &'a [f64],
+    /// The model's quantities.
+    pub q: &'a Quantities,
+}
+
 /// The force terms per unit mass (m/s^2) at a state, signed as in the
 /// equation of motion `u'' = -(spring + friction + damper + extra)`.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -203,6 +252,32 @@ pub trait ForceComponent: Send + Sync {
     /// Changes the forces at a state (components solved numerically).
     fn modify(&self, theta: &[f64], state: &Kinematics, forces: &mut Forces) {
         let _ = (theta, state, forces);
+    }
+    /// Its state variables (a component with memory); none by default.
+    /// A component with states is never piecewise linear: the numerical
+    /// engine integrates them with the motion (docs/components.md).
+    fn states(&self) -> Vec<StateSpec> {
+        Vec::new()
+    }
+    /// The states at the release, after the test protocol: the mass pushed
+    /// quasi-statically from rest at `u = 0` to `q.u0` and held there (for a
+    /// response from rest, `q.u0 = 0`). By default zero.
+    fn release_states(&self, theta: &[f64], q: &Quantities, out: &mut [f64]) {
+        let _ = (theta, q);
+        out.fill(0.0);
+    }
+    /// The states' rates `dx/dt` at a state of the motion (at rest too,
+    /// with `v = 0`). By default zero.
+    fn rates(&self, theta: &[f64], state: &Kinematics, mem: &Memory, out: &mut [f64]) {
+        let _ = (theta, state, mem);
+        out.fill(0.0);
+    }
+    /// Changes the forces at a state of the motion and of the component's
+    /// memory. By default [`modify`](Self::modify): a component without
+    /// memory implements that one.
+    fn modify_with(&self, theta: &[f64], state: &Kinematics, mem: &Memory, forces: &mut Forces) {
+        let _ = mem;
+        self.modify(theta, state, forces);
     }
     /// Displacements where its force has a kink: the numerical engine
     /// stops a step there instead of smoothing over it.

@@ -46,6 +46,8 @@ pub struct Model {
     outputs: Vec<Arc<dyn OutputComponent>>,
     layout: Layout,
     closed_form: bool,
+    /// Per force component: solved by the numerical engine.
+    numeric: Vec<bool>,
 }
 
 /// Relative tolerance of the numerical engine under shaking (the
@@ -86,13 +88,20 @@ impl Model {
         for c in &outputs {
             layout.push(c.name().to_string(), c.params());
         }
-        let closed_form = forces.iter().all(|c| c.piecewise_linear());
+        // A component with memory needs the engine that integrates its
+        // states, whatever it says of its phases.
+        let numeric: Vec<bool> = forces
+            .iter()
+            .map(|c| !c.piecewise_linear() || !c.states().is_empty())
+            .collect();
+        let closed_form = !numeric.contains(&true);
         Self {
             spec,
             forces,
             outputs,
             layout,
             closed_form,
+            numeric,
         }
     }
 
@@ -130,6 +139,11 @@ impl Model {
     pub fn numerically(mut self) -> Self {
         self.closed_form = false;
         self
+    }
+
+    /// How many state variables its force components carry.
+    pub fn n_states(&self) -> usize {
+        self.forces.iter().map(|c| c.states().len()).sum()
     }
 
     /// Whether a component of that name is part of the model (a core law
@@ -306,7 +320,7 @@ impl Model {
         self.forces
             .iter()
             .enumerate()
-            .filter(|(_, c)| !c.piecewise_linear())
+            .filter(|(i, _)| self.numeric[*i])
             .map(|(i, c)| (c.as_ref(), self.layout.values(theta, 1 + i)))
             .collect()
     }

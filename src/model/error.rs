@@ -66,6 +66,12 @@ pub enum SpecError {
     BadName(String),
     #[error("a component named `{0}` is registered already")]
     Registered(String),
+    #[error("`{spec}`: its components carry {found} state variables; the numerical engine holds at most {max}")]
+    States {
+        spec: String,
+        found: usize,
+        max: usize,
+    },
 }
 
 /// A simulation that cannot be completed.
@@ -91,4 +97,7 @@ pub enum SimError {
     /// that component, reported instead of propagated.
     #[error("the model's acceleration is not finite at t = {t:.6} s (a bug in a model component)")]
     NotFinite { t: f64 },
+    /// The components carry more state variables than the engine holds.
+    #[error("the model's components carry {found} state variables; the numerical engine holds at most {max}")]
+    States { found: usize, max: usize },
 }

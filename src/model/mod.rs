@@ -33,7 +33,8 @@ pub mod spec;
 pub mod spring;
 
 pub use component::{
-    Core, FeatureKind, ForceComponent, Forces, Kinematics, OutputComponent, ParamSpec, Slot,
+    Core, FeatureKind, ForceComponent, Forces, Kinematics, Memory, OutputComponent, ParamSpec,
+    Quantities, Slot, StateSpec,
 };
 pub use composed::Model;
 pub use error::{ParamError, SimError, SpecError};

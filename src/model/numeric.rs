@@ -37,7 +37,7 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
-use super::component::{ForceComponent, Forces, Kinematics};
+use super::component::{ForceComponent, Forces, Kinematics, Memory, Quantities};
 use super::error::SimError;
 use super::forced::{Excitation, ForcedSink, Peaks};
 use super::simulate::{PhaseKind, System};
@@ -47,11 +47,19 @@ use crate::numeric::ode::{Dopri5, Stop};
 /// Most kinks one model may declare (the solver locates 16 events).
 const MAX_KINKS: usize = 13;
 
+/// Most state variables one model's components may carry together (the
+/// engine's state is `(u, u', states)`, a fixed-size vector per count).
+pub const MAX_STATES: usize = 4;
+
 /// The resolved system plus the components solved numerically.
 #[derive(Clone)]
 pub struct NumericSystem<'a> {
     system: System,
     terms: &'a [(&'a dyn ForceComponent, &'a [f64])],
+    /// Where each term's states start in the state vector (after `u, u'`);
+    /// the last entry is the number of states.
+    offsets: Vec<usize>,
+    q: Quantities,
     /// Friction amplitude floored at zero (as under shaking).
     floored: bool,
 }
@@ -60,15 +68,37 @@ impl<'a> NumericSystem<'a> {
     /// `system` (piecewise-linear components already configured) with the
     /// components `terms` and their parameter values.
     pub fn with_terms(system: System, terms: &'a [(&'a dyn ForceComponent, &'a [f64])]) -> Self {
+        let mut offsets = vec![0];
+        for (c, _) in terms {
+            offsets.push(offsets.last().unwrap() + c.states().len());
+        }
+        let q = Quantities {
+            k0: system.spring().k0(),
+            u0: system.u0(),
+        };
         Self {
             system,
             terms,
+            offsets,
+            q,
             floored: false,
         }
     }
 
-    /// The forces on spring branch `b` at state `k`.
+    /// How many state variables the components carry.
+    pub fn n_states(&self) -> usize {
+        *self.offsets.last().unwrap_or(&0)
+    }
+
+    /// The forces on spring branch `b` at state `k` (components without
+    /// memory only: no time, no states).
     pub fn forces(&self, b: SpringBranch, k: &Kinematics) -> Forces {
+        self.forces_at(b, k, 0.0, &[])
+    }
+
+    /// The forces on spring branch `b` at state `k`, time `t` since the
+    /// release and component states `x` (all of them, in term order).
+    pub fn forces_at(&self, b: SpringBranch, k: &Kinematics, t: f64, x: &[f64]) -> Forces {
         let s = &self.system;
         let mut f = Forces {
             spring: s.spring().force(b, k.u),
@@ -80,17 +110,44 @@ impl<'a> NumericSystem<'a> {
             damper: s.damper_rate() * k.v,
             extra: 0.0,
         };
-        for (c, theta) in self.terms {
-            c.modify(theta, k, &mut f);
+        for (i, (c, theta)) in self.terms.iter().enumerate() {
+            let x = x.get(self.offsets[i]..self.offsets[i + 1]).unwrap_or(&[]);
+            let mem = Memory { t, x, q: &self.q };
+            c.modify_with(theta, k, &mem, &mut f);
         }
         f
     }
 
+    /// The states' rates at state `k`, time `t` and states `x`, into `out`.
+    fn rates_into(&self, k: &Kinematics, t: f64, x: &[f64], out: &mut [f64]) {
+        for (i, (c, theta)) in self.terms.iter().enumerate() {
+            let (a, b) = (self.offsets[i], self.offsets[i + 1]);
+            if b > a {
+                let mem = Memory {
+                    t,
+                    x: &x[a..b],
+                    q: &self.q,
+                };
+                c.rates(theta, k, &mem, &mut out[a..b]);
+            }
+        }
+    }
+
+    /// The states at the release (or, for a response from rest, `q.u0 = 0`).
+    fn release_states(&self, q: &Quantities, out: &mut [f64]) {
+        for (i, (c, theta)) in self.terms.iter().enumerate() {
+            let (a, b) = (self.offsets[i], self.offsets[i + 1]);
+            if b > a {
+                c.release_states(theta, q, &mut out[a..b]);
+            }
+        }
+    }
+
     /// Direction of motion after a stop at `u` on branch `b`, or `None` if
     /// the slider holds the mass (eq. 5.6 with every component's force).
-    fn start_dir(&self, b: SpringBranch, u: f64, travel: f64) -> Option<f64> {
+    fn start_dir(&self, b: SpringBranch, u: f64, travel: f64, t: f64, x: &[f64]) -> Option<f64> {
         let at = |dir| {
-            self.forces(
+            self.forces_at(
                 b,
                 &Kinematics {
                     u,
@@ -98,6 +155,8 @@ impl<'a> NumericSystem<'a> {
                     dir,
                     travel,
                 },
+                t,
+                x,
             )
         };
         let f = at(1.0);
@@ -139,8 +198,29 @@ impl<'a> NumericSystem<'a> {
         Ok(out)
     }
 
-    /// Integrates and hands each grid sample to `emit`.
+    /// Integrates and hands each grid sample to `emit`: the state vector
+    /// has `2 + n_states` entries, a size fixed at compile time per count.
     fn grid(
+        &self,
+        start: f64,
+        dt: f64,
+        n: usize,
+        emit: impl FnMut(usize, Motion),
+    ) -> Result<(), SimError> {
+        match self.n_states() {
+            0 => self.grid_n::<2>(start, dt, n, emit),
+            1 => self.grid_n::<3>(start, dt, n, emit),
+            2 => self.grid_n::<4>(start, dt, n, emit),
+            3 => self.grid_n::<5>(start, dt, n, emit),
+            4 => self.grid_n::<6>(start, dt, n, emit),
+            found => Err(SimError::States {
+                found,
+                max: MAX_STATES,
+            }),
+        }
+    }
+
+    fn grid_n<const N: usize>(
         &self,
         start: f64,
         dt: f64,
@@ -170,11 +250,16 @@ impl<'a> NumericSystem<'a> {
         let u0 = self.system.u0();
         let mut t = 0.0;
         let (mut u, mut v, mut s) = (u0, 0.0, 0.0);
+        // The component states ride in x[2..] (x[0], x[1] unused).
+        let mut x = [0.0; N];
+        self.release_states(&self.q, &mut x[2..]);
+        check_states(&x[2..], 0.0)?;
         let mut branch = SpringBranch::Elastic {
             u_i: u,
             f_i: sp.virgin(u),
         };
-        let mut dir = self.start_dir(branch, u, s);
+        let mut dir = self.start_dir(branch, u, s, t, &x[2..]);
+        let mut last_dir = 1.0;
         let mut next = 0usize;
         let ode = Dopri5::new()
             .with_rtol(5e-9)
@@ -184,7 +269,7 @@ impl<'a> NumericSystem<'a> {
         let mut phases = 0;
         let mut h_carry: Option<f64> = None;
         // Travel within a stretch of direction d that started at (u_s, s_s).
-        let state = |y: &[f64; 2], d: f64, u_s: f64, s_s: f64| Kinematics {
+        let state = |y: &[f64; N], d: f64, u_s: f64, s_s: f64| Kinematics {
             u: y[0],
             v: y[1],
             dir: d,
@@ -196,25 +281,51 @@ impl<'a> NumericSystem<'a> {
                 return Err(SimError::PhaseCap { cap: 100_000, t });
             }
             let Some(d) = dir else {
-                // At rest: the forces balance.
-                for i in next..n {
-                    emit(
-                        i,
-                        Motion {
-                            u,
-                            v: 0.0,
-                            a: 0.0,
-                            phase: PhaseKind::Rest,
-                        },
-                    );
+                let rest = Motion {
+                    u,
+                    v: 0.0,
+                    a: 0.0,
+                    phase: PhaseKind::Rest,
+                };
+                if N == 2 {
+                    // At rest with nothing that evolves: for good.
+                    for i in next..n {
+                        emit(i, rest);
+                    }
+                    return Ok(());
                 }
-                return Ok(());
+                let (restart, t_r) = self.rest::<N>(
+                    (branch, u, s, last_dir),
+                    (t, t_end),
+                    &mut x,
+                    ode,
+                    |ti_end| {
+                        while next < n && start + next as f64 * dt < ti_end {
+                            emit(next, rest);
+                            next += 1;
+                        }
+                    },
+                )?;
+                t = t_r;
+                dir = restart;
+                h_carry = None;
+                continue;
             };
+            last_dir = d;
             let target = sp.next_event(branch, d);
             let b = branch;
             let (u_s, s_s) = (u, s);
-            let rhs = |_: f64, y: &[f64; 2]| [y[1], self.forces(b, &state(y, d, u_s, s_s)).accel()];
-            let events = |_: f64, y: &[f64; 2], g: &mut [f64]| {
+            let rhs = |tt: f64, y: &[f64; N]| {
+                let k = state(y, d, u_s, s_s);
+                let mut r = [0.0; N];
+                r[0] = y[1];
+                r[1] = self.forces_at(b, &k, tt, &y[2..]).accel();
+                if N > 2 {
+                    self.rates_into(&k, tt, &y[2..], &mut r[2..]);
+                }
+                r
+            };
+            let events = |_: f64, y: &[f64; N], g: &mut [f64]| {
                 g[0] = d * y[1];
                 g[1] = target.map_or(1.0, |(x, _)| d * (x - y[0]));
                 g[2] = if has_slope { y[0] } else { 1.0 };
@@ -223,7 +334,7 @@ impl<'a> NumericSystem<'a> {
                 }
             };
             let mut bad = None;
-            let observe = |step: &crate::numeric::ode::DenseStep<2>| {
+            let observe = |step: &crate::numeric::ode::DenseStep<N>| {
                 while next < n {
                     let ti = start + next as f64 * dt;
                     // A sample exactly at an event belongs to the phase
@@ -232,8 +343,11 @@ impl<'a> NumericSystem<'a> {
                     if ti >= step.t_end() {
                         break;
                     }
-                    let y = step.eval(ti.max(step.t_start()));
-                    let a = self.forces(b, &state(&y, d, u_s, s_s)).accel();
+                    let tc = ti.max(step.t_start());
+                    let y = step.eval(tc);
+                    let a = self
+                        .forces_at(b, &state(&y, d, u_s, s_s), tc, &y[2..])
+                        .accel();
                     if !a.is_finite() {
                         bad.get_or_insert(ti);
                     }
@@ -251,37 +365,33 @@ impl<'a> NumericSystem<'a> {
             };
             // A phase that starts exactly on its kink must not stop at once.
             let v_start = if v * d < 0.0 { 0.0 } else { v };
+            let mut y0 = x;
+            [y0[0], y0[1]] = [u, v_start];
             // The step the last phase ended with suits the next one (the
             // motion's time scale does not change at an event), and saves
             // the start-up steps.
             let ode = h_carry.map_or(ode, |h| ode.with_h_init(h).unwrap_or(ode));
             let outcome = ode
-                .solve(
-                    rhs,
-                    t,
-                    [u, v_start],
-                    t_end,
-                    3 + kinks.len(),
-                    events,
-                    observe,
-                )
+                .solve(rhs, t, y0, t_end, 3 + kinks.len(), events, observe)
                 .map_err(|_| SimError::Diverged { t, u })?;
             if let Some(t) = bad {
                 return Err(SimError::NotFinite { t });
             }
             t = outcome.t;
-            [u, v] = outcome.y;
+            x = outcome.y;
+            [u, v] = [x[0], x[1]];
             h_carry = Some(outcome.h_next);
             s = s_s + d * (u - u_s);
             if !(u.is_finite() && v.is_finite()) || u.abs() > 1e6 * u0.abs().max(1e-3) {
                 return Err(SimError::Diverged { t, u });
             }
+            check_states(&x[2..], t)?;
             match outcome.stop {
                 Stop::End => break,
                 Stop::Event { index: 0 } => {
                     v = 0.0;
                     branch = sp.unload(branch, u);
-                    dir = self.start_dir(branch, u, s);
+                    dir = self.start_dir(branch, u, s, t, &x[2..]);
                 }
                 Stop::Event { index: 1 } => {
                     if let Some((x, nb)) = target {
@@ -294,7 +404,7 @@ impl<'a> NumericSystem<'a> {
         }
         // Samples the last step did not reach (round-off at the very end).
         let last = self
-            .forces(
+            .forces_at(
                 branch,
                 &Kinematics {
                     u,
@@ -302,8 +412,11 @@ impl<'a> NumericSystem<'a> {
                     dir: dir.unwrap_or(1.0),
                     travel: s,
                 },
+                t,
+                &x[2..],
             )
             .accel();
+        let last = if dir.is_some() { last } else { 0.0 };
         for i in next..n {
             emit(
                 i,
@@ -311,11 +424,77 @@ impl<'a> NumericSystem<'a> {
                     u,
                     v,
                     a: last,
-                    phase: phase_of(sp, branch),
+                    phase: if dir.is_some() {
+                        phase_of(sp, branch)
+                    } else {
+                        PhaseKind::Rest
+                    },
                 },
             );
         }
         Ok(())
+    }
+
+    /// The mass at rest at `u` on `branch` (travel `s`, last sliding
+    /// direction `d`) from `t` to at most `t_end` while its components'
+    /// states evolve (`x[2..]`, updated): returns the direction in which it
+    /// starts to slide again, located as an event where the net force,
+    /// states included, leaves the friction band, and when; `None` and
+    /// `t_end` if it stays. `reached(t)` is told how far the rest goes.
+    fn rest<const N: usize>(
+        &self,
+        (branch, u, s, d): (SpringBranch, f64, f64, f64),
+        (t, t_end): (f64, f64),
+        x: &mut [f64; N],
+        ode: Dopri5,
+        mut reached: impl FnMut(f64),
+    ) -> Result<(Option<f64>, f64), SimError> {
+        let at = |dir: f64| Kinematics {
+            u,
+            v: 0.0,
+            dir,
+            travel: s,
+        };
+        let rhs = |tt: f64, y: &[f64; N]| {
+            let mut r = [0.0; N];
+            self.rates_into(&at(d), tt, &y[2..], &mut r[2..]);
+            r
+        };
+        // Positive once the drive beats the friction that resists a start
+        // in that direction (eq. 5.6 with the states' forces).
+        let events = |tt: f64, y: &[f64; N], g: &mut [f64]| {
+            let up = self.forces_at(branch, &at(1.0), tt, &y[2..]);
+            let down = self.forces_at(branch, &at(-1.0), tt, &y[2..]);
+            let drive = up.spring + up.extra;
+            g[0] = -drive - up.friction.abs();
+            g[1] = drive - down.friction.abs();
+        };
+        let mut y0 = *x;
+        [y0[0], y0[1]] = [u, 0.0];
+        let out = ode
+            .solve(rhs, t, y0, t_end, 2, events, |step| reached(step.t_end()))
+            .map_err(|_| SimError::Diverged { t, u })?;
+        *x = out.y;
+        check_states(&x[2..], out.t)?;
+        let restart = match out.stop {
+            Stop::End => None,
+            Stop::Event { index: 0 } => Some(1.0),
+            Stop::Event { .. } => Some(-1.0),
+        };
+        if restart.is_none() {
+            // The last step ends at t_end, after the last sample.
+            reached(f64::INFINITY);
+        }
+        Ok((restart, out.t))
+    }
+}
+
+/// Component states must stay finite: a NaN is a bug in a component.
+fn check_states(x: &[f64], t: f64) -> Result<(), SimError> {
+    if x.iter().all(|v| v.is_finite()) {
+        Ok(())
+    } else {
+        Err(SimError::NotFinite { t })
     }
 }
 
@@ -356,6 +535,12 @@ impl NumericSystem<'_> {
         rtol: f64,
         sink: &mut S,
     ) -> Result<Peaks, SimError> {
+        if self.n_states() > 0 {
+            return Err(SimError::States {
+                found: self.n_states(),
+                max: 0,
+            });
+        }
         let me = NumericSystem {
             floored: true,
             ..self.clone()

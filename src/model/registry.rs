@@ -23,11 +23,12 @@
 use std::sync::Arc;
 
 use super::catalog::{
-    AsymmetricFriction, CoreLaw, Degradation, FrictionDecay, Offset, VelocityFriction,
+    AsymmetricFriction, CoreLaw, Degradation, FrictionDecay, Maxwell, Offset, VelocityFriction,
 };
 use super::component::{Core, FeatureKind, ForceComponent, OutputComponent, Slot};
 use super::composed::Model;
 use super::error::SpecError;
+use super::numeric::MAX_STATES;
 use super::spec::{DamperKind, FrictionKind, ModelSpec, SpringKind};
 
 /// A registered component.
@@ -98,6 +99,7 @@ impl Registry {
         entries.push(Component::Force(Arc::new(VelocityFriction)));
         entries.push(Component::Force(Arc::new(FrictionDecay)));
         entries.push(Component::Force(Arc::new(Degradation)));
+        entries.push(Component::Force(Arc::new(Maxwell)));
         entries.push(Component::Output(Arc::new(Offset)));
         Self {
             entries,
@@ -213,6 +215,14 @@ impl Registry {
             damper: damper.unwrap_or(DamperKind::None),
         };
         let model = Model::new(spec, forces, outputs);
+        let states = model.n_states();
+        if states > MAX_STATES {
+            return Err(SpecError::States {
+                spec: s.to_string(),
+                found: states,
+                max: MAX_STATES,
+            });
+        }
         for f in model.forces() {
             if let Some(slot) = f.requires() {
                 if !model.fills(slot) {

@@ -28,6 +28,7 @@ mod forced;
 mod identifiability;
 mod map_second_search;
 mod map_synthetic;
+mod memory;
 mod model_props;
 mod numeric_engine;
 mod paper_checks;

@@ -9,6 +9,7 @@
 //! | `velocity-friction` | force | `r_mu`, `v_t` | numerical |
 //! | `friction-decay` | force | `kappa_F` | numerical |
 //! | `degradation` | force | `kappa_k` | numerical |
+//! | `maxwell` | force with memory (`q_m`) | `r_m`, `tau_m` | numerical |
 //! | `offset` | output | `a_off` | (output) |
 //!
 //! The release displacement `u0` belongs to the model itself: every model
@@ -18,6 +19,7 @@ mod asymmetric_friction;
 mod core;
 mod degradation;
 mod friction_decay;
+mod maxwell;
 mod offset;
 mod velocity_friction;
 
@@ -25,5 +27,6 @@ pub use asymmetric_friction::AsymmetricFriction;
 pub use core::CoreLaw;
 pub use degradation::Degradation;
 pub use friction_decay::FrictionDecay;
+pub use maxwell::Maxwell;
 pub use offset::Offset;
 pub use velocity_friction::VelocityFriction;
