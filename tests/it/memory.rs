@@ -51,7 +51,7 @@ impl Reference {
         let mut dir = self.start(&y);
         let mut t = 0.0;
         let mut out = Vec::with_capacity(n);
-        let mut rests = Vec::new();
+        let mut rests: Vec<(f64, f64)> = Vec::new();
         for i in 0..n {
             let ti = i as f64 * dt;
             while t < ti {
