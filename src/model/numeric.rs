@@ -535,20 +535,24 @@ impl NumericSystem<'_> {
         rtol: f64,
         sink: &mut S,
     ) -> Result<Peaks, SimError> {
-        if self.n_states() > 0 {
-            return Err(SimError::States {
-                found: self.n_states(),
-                max: 0,
-            });
-        }
         let me = NumericSystem {
             floored: true,
             ..self.clone()
         };
-        me.forced_run(ex, rtol, sink)
+        match self.n_states() {
+            0 => me.forced_run::<S, 2>(ex, rtol, sink),
+            1 => me.forced_run::<S, 3>(ex, rtol, sink),
+            2 => me.forced_run::<S, 4>(ex, rtol, sink),
+            3 => me.forced_run::<S, 5>(ex, rtol, sink),
+            4 => me.forced_run::<S, 6>(ex, rtol, sink),
+            found => Err(SimError::States {
+                found,
+                max: MAX_STATES,
+            }),
+        }
     }
 
-    fn forced_run<S: ForcedSink>(
+    fn forced_run<S: ForcedSink, const N: usize>(
         &self,
         ex: &Excitation,
         rtol: f64,
@@ -577,6 +581,12 @@ impl NumericSystem<'_> {
             })?;
         let dt = ex.dt();
         let (mut u, mut v, mut s) = (0.0, 0.0, 0.0);
+        // Component states in x[2..]: from rest, as after a push to u0 = 0.
+        let mut x = [0.0; N];
+        let from_rest = Quantities { u0: 0.0, ..self.q };
+        self.release_states(&from_rest, &mut x[2..]);
+        check_states(&x[2..], 0.0)?;
+        let mut last_dir = 1.0;
         let mut branch = SpringBranch::Elastic { u_i: 0.0, f_i: 0.0 };
         let mut dir: Option<f64> = None;
         let mut peaks = ForcedPeaks::default();
@@ -602,6 +612,18 @@ impl NumericSystem<'_> {
                     return Err(SimError::PhaseCap { cap: 1_000_000, t });
                 }
                 let Some(d) = dir else {
+                    if N > 2 {
+                        // Stuck while the states evolve: the breakaway is
+                        // an event of their integration.
+                        let (nd, t_b) =
+                            self.stuck(branch, (u, s, last_dir), (t, t_next), &ag, &mut x, ode)?;
+                        t = t_b;
+                        match nd {
+                            Some(nd) => dir = Some(nd),
+                            None => break,
+                        }
+                        continue;
+                    }
                     // Stuck: the drive F_S + extra + ag is linear in time.
                     let f = self.forces(branch, &kin(u, 0.0, 1.0, s));
                     let base = f.spring + f.extra;
@@ -623,6 +645,7 @@ impl NumericSystem<'_> {
                     dir = Some(nd);
                     continue;
                 };
+                last_dir = d;
                 let target = sp.next_event(branch, d);
                 if let Some((x, nb)) = target.filter(|(x, _)| d * (x - u) <= 0.0) {
                     // Already there (sliding on after a pause on the
@@ -634,11 +657,19 @@ impl NumericSystem<'_> {
                 }
                 let b = branch;
                 let (u_s, s_s) = (u, s);
-                let state = |y: &[f64; 2]| kin(y[0], y[1], d, s_s + d * (y[0] - u_s));
-                let rhs =
-                    |tt: f64, y: &[f64; 2]| [y[1], self.forces(b, &state(y)).accel() - ag(tt)];
+                let state = |y: &[f64; N]| kin(y[0], y[1], d, s_s + d * (y[0] - u_s));
+                let force = |tt: f64, y: &[f64; N]| self.forces_at(b, &state(y), tt, &y[2..]);
+                let rhs = |tt: f64, y: &[f64; N]| {
+                    let mut r = [0.0; N];
+                    r[0] = y[1];
+                    r[1] = force(tt, y).accel() - ag(tt);
+                    if N > 2 {
+                        self.rates_into(&state(y), tt, &y[2..], &mut r[2..]);
+                    }
+                    r
+                };
                 let extremum = 3 + kinks.len();
-                let events_fn = |tt: f64, y: &[f64; 2], g: &mut [f64]| {
+                let events_fn = |tt: f64, y: &[f64; N], g: &mut [f64]| {
                     g[0] = d * y[1];
                     g[1] = target.map_or(1.0, |(x, _)| d * (x - y[0]));
                     g[2] = if has_slope { y[0] } else { 1.0 };
@@ -647,32 +678,33 @@ impl NumericSystem<'_> {
                     }
                     // The velocity's extrema: a dip to zero inside one
                     // step changes no sign at the step's ends.
-                    let total = |y: &[f64; 2]| self.forces(b, &state(y)).accel();
-                    let a = total(y) - ag(tt);
+                    let total = |tt: f64, y: &[f64; N]| force(tt, y).accel();
+                    let a = total(tt, y) - ag(tt);
                     g[extremum] = d * a;
                     // And the total acceleration's rate along the motion
                     // (a central difference of the forces; its zero is where
                     // the base shear peaks between samples).
                     let h = 1e-6;
-                    let (yp, ym) = (
-                        [y[0] + h * y[1], y[1] + h * a],
-                        [y[0] - h * y[1], y[1] - h * a],
-                    );
-                    g[extremum + 1] = (total(&yp) - total(&ym)) / (2.0 * h);
+                    let (mut yp, mut ym) = (*y, *y);
+                    [yp[0], yp[1]] = [y[0] + h * y[1], y[1] + h * a];
+                    [ym[0], ym[1]] = [y[0] - h * y[1], y[1] - h * a];
+                    if N > 2 {
+                        let mut r = [0.0; N];
+                        self.rates_into(&state(y), tt, &y[2..], &mut r[2..]);
+                        for i in 2..N {
+                            yp[i] += h * r[i];
+                            ym[i] -= h * r[i];
+                        }
+                    }
+                    g[extremum + 1] = (total(tt + h, &yp) - total(tt - h, &ym)) / (2.0 * h);
                 };
                 let v_start = if v * d < 0.0 { 0.0 } else { v };
+                let mut y0 = x;
+                [y0[0], y0[1]] = [u, v_start];
                 // The last stretch's step suits this one: no start-up steps.
                 let ode = h_carry.map_or(ode, |h| ode.with_h_init(h).unwrap_or(ode));
                 let mut out = ode
-                    .solve(
-                        rhs,
-                        t,
-                        [u, v_start],
-                        t_next,
-                        extremum + 2,
-                        events_fn,
-                        |_| {},
-                    )
+                    .solve(rhs, t, y0, t_next, extremum + 2, events_fn, |_| {})
                     .map_err(|_| SimError::Diverged { t, u })?;
                 if out.stop == (Stop::Event { index: extremum }) && d * out.y[1] <= 0.0 {
                     // A minimum of the speed below zero: the stop came
@@ -680,7 +712,7 @@ impl NumericSystem<'_> {
                     // where the velocity's sign has changed.
                     let t_min = out.t;
                     out = ode
-                        .solve(rhs, t, [u, v_start], t_min, extremum, events_fn, |_| {})
+                        .solve(rhs, t, y0, t_min, extremum, events_fn, |_| {})
                         .map_err(|_| SimError::Diverged { t, u })?;
                     if out.stop == Stop::End {
                         out.stop = Stop::Event { index: 0 };
@@ -689,10 +721,12 @@ impl NumericSystem<'_> {
                 }
                 if out.stop != Stop::End {
                     // Peaks at the events, as the closed form takes them.
-                    note(&mut peaks, &self.forces(b, &state(&out.y)), out.y[0]);
+                    note(&mut peaks, &force(out.t, &out.y), out.y[0]);
                 }
                 t = out.t;
-                [u, v] = out.y;
+                x = out.y;
+                [u, v] = [x[0], x[1]];
+                check_states(&x[2..], t)?;
                 h_carry = Some(out.h_next);
                 s = s_s + d * (u - u_s);
                 if !(u.is_finite() && v.is_finite()) || u.abs() > 1e3 {
@@ -703,11 +737,14 @@ impl NumericSystem<'_> {
                     Stop::Event { index: 0 } => {
                         v = 0.0;
                         let unloaded = sp.unload(branch, u);
-                        let f = self.forces(unloaded, &kin(u, 0.0, d, s));
+                        let f = self.forces_at(unloaded, &kin(u, 0.0, d, s), t, &x[2..]);
                         note(&mut peaks, &f, u);
                         let drive = f.spring + f.extra + ag(t);
                         let nd = -drive.signum();
-                        let cap = self.forces(unloaded, &kin(u, 0.0, nd, s)).friction.abs();
+                        let cap = self
+                            .forces_at(unloaded, &kin(u, 0.0, nd, s), t, &x[2..])
+                            .friction
+                            .abs();
                         if drive != 0.0 && drive.abs() > cap {
                             if nd != d {
                                 branch = unloaded;
@@ -735,7 +772,7 @@ impl NumericSystem<'_> {
             let (total, shear) = match dir {
                 None => (ag1, -ag1),
                 Some(d) => {
-                    let f = self.forces(branch, &kin(u, v, d, s));
+                    let f = self.forces_at(branch, &kin(u, v, d, s), t, &x[2..]);
                     (f.accel(), f.spring + f.friction + f.damper + f.extra)
                 }
             };
@@ -749,6 +786,62 @@ impl NumericSystem<'_> {
             peak_total_acceleration: peaks.total,
             deepest_branch: peaks.deepest,
             friction_floored: peaks.floored,
+        })
+    }
+
+    /// Stuck at `u` on `branch` (travel `s`, last sliding direction `d`)
+    /// from `t` to `t_next` under the ground acceleration `ag` while the
+    /// components' states evolve (`x[2..]`, updated): the direction of the
+    /// breakaway and its time, located where the drive (spring, states'
+    /// forces and `ag`) leaves the friction band; `None` if it holds.
+    #[allow(clippy::too_many_arguments)]
+    fn stuck<const N: usize>(
+        &self,
+        branch: SpringBranch,
+        (u, s, d): (f64, f64, f64),
+        (t, t_next): (f64, f64),
+        ag: &dyn Fn(f64) -> f64,
+        x: &mut [f64; N],
+        ode: Dopri5,
+    ) -> Result<(Option<f64>, f64), SimError> {
+        let at = |dir: f64| Kinematics {
+            u,
+            v: 0.0,
+            dir,
+            travel: s,
+        };
+        let rhs = |tt: f64, y: &[f64; N]| {
+            let mut r = [0.0; N];
+            self.rates_into(&at(d), tt, &y[2..], &mut r[2..]);
+            r
+        };
+        let events = |tt: f64, y: &[f64; N], g: &mut [f64]| {
+            let up = self.forces_at(branch, &at(1.0), tt, &y[2..]);
+            let down = self.forces_at(branch, &at(-1.0), tt, &y[2..]);
+            let drive = up.spring + up.extra + ag(tt);
+            g[0] = -drive - up.friction.abs();
+            g[1] = drive - down.friction.abs();
+        };
+        let mut g = [0.0; 2];
+        events(t, x, &mut g);
+        // Already beyond the band at the start of the stretch.
+        if g[0] > 0.0 {
+            return Ok((Some(1.0), t));
+        }
+        if g[1] > 0.0 {
+            return Ok((Some(-1.0), t));
+        }
+        let mut y0 = *x;
+        [y0[0], y0[1]] = [u, 0.0];
+        let out = ode
+            .solve(rhs, t, y0, t_next, 2, events, |_| {})
+            .map_err(|_| SimError::Diverged { t, u })?;
+        *x = out.y;
+        check_states(&x[2..], out.t)?;
+        Ok(match out.stop {
+            Stop::End => (None, t_next),
+            Stop::Event { index: 0 } => (Some(1.0), out.t),
+            Stop::Event { .. } => (Some(-1.0), out.t),
         })
     }
 

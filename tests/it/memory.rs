@@ -260,3 +260,63 @@ fn maxwell_with_no_stiffness_is_the_closed_form() {
     eprintln!("maxwell r_m = 0 against the closed form: {checked} samples");
     assert!(checked > 20_000, "{checked}");
 }
+
+/// Under shaking from rest (`q = 0`), an element that never relaxes
+/// (`tau_m` far beyond the motion) is a linear spring `r_m k0` beside the
+/// rubber: the closed form of a linear model with `k0 (1 + r_m)` (its
+/// friction and damper rescaled to the same forces) gives the same motion,
+/// sticking and breakaway included.
+#[test]
+fn an_unrelaxing_element_under_shaking_is_an_added_spring() {
+    use hbis::data::ground_motion::KanaiTajimi;
+    use hbis::model::forced::Excitation;
+
+    let registry = Registry::builtin();
+    let with = registry.parse("linear+coulomb+viscous+maxwell").unwrap();
+    let plain = registry.parse("linear+coulomb+viscous").unwrap();
+    let mut compared = 0usize;
+    for (seed, r_m, uf0) in [(3u64, 0.5, 0.01), (4, 0.2, 0.03), (5, 1.0, 0.002)] {
+        let ag = KanaiTajimi {
+            pga: 3.0,
+            duration: 6.0,
+            t1: 0.5,
+            t2: 3.0,
+            decay: 0.8,
+            ..KanaiTajimi::default()
+        }
+        .generate(seed)
+        .unwrap()
+        .ag;
+        let ex = Excitation::new(0.01, &ag, 3.0).unwrap();
+        let p = params(0.5, uf0, 0.05, 0.1);
+        let theta = with
+            .theta_from_params(&p, &[("r_m", r_m), ("tau_m", 1e7)])
+            .unwrap();
+        let stiff = 1.0 + r_m;
+        let q = Params {
+            f0: p.f0 * stiff.sqrt(),
+            uf0: p.uf0 / stiff,
+            zeta0: p.zeta0 / stiff.sqrt(),
+            ..p
+        };
+        let (mut u_mem, mut u_lin) = (Vec::new(), Vec::new());
+        let peaks = with.forced(&theta, &ex, &mut u_mem).unwrap();
+        let expected = plain
+            .forced(&plain.theta_from_params(&q, &[]).unwrap(), &ex, &mut u_lin)
+            .unwrap();
+        let scale = expected.peak_displacement;
+        let worst = u_mem
+            .iter()
+            .zip(&u_lin)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max);
+        eprintln!(
+            "seed {seed} r_m {r_m}: peak {:.6} m against {:.6} m, worst difference {worst:.2e} m",
+            peaks.peak_displacement, scale
+        );
+        assert!(worst < 1e-5 * scale, "{worst} against {scale}");
+        assert!((peaks.peak_displacement - scale).abs() < 1e-5 * scale);
+        compared += u_mem.len();
+    }
+    assert!(compared > 2_000, "{compared}");
+}
