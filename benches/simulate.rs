@@ -142,6 +142,45 @@ fn numeric_engine(c: &mut Criterion) {
     });
 }
 
+/// A component with memory (a Maxwell element, one state) on a 12 s,
+/// 200 Hz record of Test 5, beside the closed form and the closed-form
+/// model solved numerically on the same grid.
+fn memory_engine(c: &mut Criterion) {
+    use hbis::model::{ForwardModel, Model, Registry};
+    let p = Params::table_8_1(5).unwrap();
+    let mut out = vec![0.0; 2401];
+    let maxwell = Registry::builtin()
+        .parse("trilinear+lcfm+viscous+maxwell")
+        .unwrap();
+    let theta = maxwell
+        .theta_from_params(&p, &[("r_m", 0.15), ("tau_m", 0.4)])
+        .unwrap();
+    c.bench_function("numeric_maxwell_test5_2401", |b| {
+        b.iter(|| {
+            maxwell
+                .accel_into(black_box(&theta), 0.005, &mut out)
+                .unwrap()
+        })
+    });
+    let plain = Model::parse("trilinear+lcfm+viscous").unwrap();
+    let theta = plain.theta_from_params(&p, &[]).unwrap();
+    c.bench_function("closed_form_test5_2401", |b| {
+        b.iter(|| {
+            plain
+                .accel_into(black_box(&theta), 0.005, &mut out)
+                .unwrap()
+        })
+    });
+    let numeric = plain.clone().numerically();
+    c.bench_function("numeric_closed_form_test5_2401", |b| {
+        b.iter(|| {
+            numeric
+                .accel_into(black_box(&theta), 0.005, &mut out)
+                .unwrap()
+        })
+    });
+}
+
 criterion_group!(
     benches,
     floor_2001,
@@ -149,6 +188,7 @@ criterion_group!(
     growth,
     record_100k,
     forward_model,
-    numeric_engine
+    numeric_engine,
+    memory_engine
 );
 criterion_main!(benches);

@@ -43,6 +43,13 @@ pub struct Args {
     /// (the lower BIC of the two at the start model).
     #[arg(long, default_value = "white")]
     noise: String,
+    /// Offer only these components as candidates (comma-separated names;
+    /// `maxwell`, offered on request, may be named here).
+    #[arg(long, value_delimiter = ',')]
+    candidates: Option<Vec<String>>,
+    /// Never offer these components as candidates (comma-separated names).
+    #[arg(long, value_delimiter = ',')]
+    exclude: Vec<String>,
 }
 
 /// `hbis ladder`'s arguments: those of `hbis diagnose` and a step limit.
@@ -57,6 +64,24 @@ pub struct LadderArgs {
 }
 
 impl Args {
+    /// The built-in registry with `--candidates` and `--exclude` applied.
+    fn registry(&self) -> Result<Registry> {
+        let names = |v: &[String]| v.iter().map(|s| s.trim().to_string()).collect::<Vec<_>>();
+        let mut registry = Registry::builtin();
+        if let Some(list) = &self.candidates {
+            let list = names(list);
+            let refs: Vec<&str> = list.iter().map(String::as_str).collect();
+            registry = registry
+                .with_candidates(&refs)
+                .with_context(|| format!("--candidates `{}`", list.join(",")))?;
+        }
+        let list = names(&self.exclude);
+        let refs: Vec<&str> = list.iter().map(String::as_str).collect();
+        registry
+            .excluding(&refs)
+            .with_context(|| format!("--exclude `{}`", list.join(",")))
+    }
+
     /// The noise model asked for; `None` for `auto`.
     fn noise(&self) -> Result<Option<Noise>> {
         if self.noise == "auto" {
@@ -143,6 +168,7 @@ pub fn diagnose(a: Args) -> Result<()> {
         .unwrap_or_else(|| PathBuf::from("hbis-diagnose"));
     super::inputs::model(&a.model)?;
     a.noise()?;
+    let registry = a.registry()?;
     let mut dir = OutDir::open(&out, &[&a.data], "diagnose")?;
     let (model, data, noise, choice, warnings) = load(&a)?;
     let _ = writeln!(
@@ -151,15 +177,8 @@ pub fn diagnose(a: Args) -> Result<()> {
         model.name()
     );
     let settings = MapSettings::default();
-    let (fit, diagnosis, ranked) = diagnose_model(
-        &Registry::builtin(),
-        &model,
-        &data,
-        noise,
-        &settings,
-        a.seed,
-    )
-    .context("diagnosis")?;
+    let (fit, diagnosis, ranked) =
+        diagnose_model(&registry, &model, &data, noise, &settings, a.seed).context("diagnosis")?;
     let report = DiagnosisReport {
         hbis_version: env!("CARGO_PKG_VERSION"),
         model: model.name(),
@@ -288,10 +307,11 @@ pub fn run_ladder(l: LadderArgs) -> Result<()> {
         .unwrap_or_else(|| PathBuf::from("hbis-ladder"));
     super::inputs::model(&a.model)?;
     a.noise()?;
+    let registry = a.registry()?;
     let mut dir = OutDir::open(&out, &[&a.data], "ladder")?;
     let (model, data, noise, choice, warnings) = load(&a)?;
     let start = model.name();
-    let steps = ladder_steps(model, &data, noise, a.seed, l.max_steps)?;
+    let steps = ladder_steps(&registry, model, &data, noise, a.seed, l.max_steps)?;
     let mut err = std::io::stderr().lock();
     print_ladder(&mut err, &steps)?;
     let warnings = match steps.last() {
@@ -322,6 +342,7 @@ pub const MAX_LADDER_STEPS: usize = 6;
 /// Runs the ladder (at most `max_steps` effects are added), with a line per
 /// step on standard error when it is a terminal.
 pub fn ladder_steps(
+    registry: &Registry,
     model: Model,
     data: &Aligned,
     noise: Noise,
@@ -341,9 +362,8 @@ pub fn ladder_steps(
             s.e2
         );
     };
-    let registry = Registry::builtin();
     ladder_observed(
-        &registry,
+        registry,
         model,
         data,
         noise,

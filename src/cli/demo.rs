@@ -9,7 +9,7 @@ use hbis::data::synthesize;
 use hbis::inference::{MapSettings, Noise, Posterior, SampleSettings};
 use hbis::model::physical::Physical;
 use hbis::model::response::grid_len;
-use hbis::model::{ModelSpec, Params, PhaseKind, Response};
+use hbis::model::{ModelSpec, Params, PhaseKind, Registry, Response};
 use hbis::report;
 use hbis::report::outdir::OutDir;
 use hbis::study::FitOptions;
@@ -96,6 +96,7 @@ fn criticize(out: &mut impl Write, dir: &mut OutDir) -> Result<()> {
     let data = syn.record.aligned(None)?;
     let start = hbis::model::Model::parse("bilinear+coulomb")?;
     let steps = super::criticize::ladder_steps(
+        &Registry::builtin(),
         start,
         &data,
         Noise::White,

@@ -188,6 +188,29 @@ fn bad_models_and_records_exit_2() {
     );
     assert_eq!(o.status.code(), Some(2));
     assert!(stderr(&o).contains("row 3, column `a`"), "{}", stderr(&o));
+    // An unknown name in --candidates or --exclude is named, with the
+    // known ones, before any fit and before the output folder is made.
+    for flag in ["--candidates", "--exclude"] {
+        let o = hbis(
+            d.path(),
+            &[
+                "diagnose",
+                "--data",
+                "rec.csv",
+                "--model",
+                "bilinear",
+                flag,
+                "offset,maxwel",
+                "--out",
+                "never",
+            ],
+        );
+        assert_eq!(o.status.code(), Some(2), "{flag}");
+        let err = stderr(&o);
+        assert!(err.contains(&format!("{flag} `offset,maxwel`")), "{err}");
+        assert!(err.contains("`maxwel`") && err.contains("maxwell"), "{err}");
+        assert!(!d.path().join("never").exists(), "{flag}");
+    }
 }
 
 /// A velocity-dependent friction record with coloured, filtered and

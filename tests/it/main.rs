@@ -29,6 +29,7 @@ mod identifiability;
 mod map_second_search;
 mod map_synthetic;
 mod memory;
+mod memory_fit;
 mod model_props;
 mod numeric_engine;
 mod paper_checks;

@@ -1,0 +1,71 @@
+//! `hbis fit` on a record made with a Maxwell element, as a user runs it:
+//! the MAP of `trilinear+lcfm+viscous+maxwell` reaches the record's noise
+//! floor within 3 % and the posterior run converges. The 90 % intervals of
+//! `r_m` and `tau_m` are printed, not asserted: on this one record they
+//! miss the truth (docs/components.md), and whether they are calibrated
+//! needs a coverage study over many records, which has not been run.
+
+use crate::bin;
+
+use bin::{hbis, stderr};
+
+use hbis::data::synthesize;
+use hbis::model::{Params, Registry};
+use rand::{rngs::StdRng, SeedableRng};
+
+const MODEL: &str = "trilinear+lcfm+viscous+maxwell";
+
+#[test]
+fn fit_recovers_a_maxwell_element() {
+    let dir = tempfile::tempdir().unwrap();
+    let model = Registry::builtin().parse(MODEL).unwrap();
+    let (r_m, tau_m) = (0.15, 0.4);
+    let truth = model
+        .theta_from_params(
+            &Params::table_8_1(5).unwrap(),
+            &[("r_m", r_m), ("tau_m", tau_m)],
+        )
+        .unwrap();
+    let seed = 31;
+    eprintln!("record seed {seed}, fit seed 5");
+    let mut rng = StdRng::seed_from_u64(seed);
+    let syn = synthesize(&model, &truth, 0.005, 2001, 0.015, &mut rng).unwrap();
+    std::fs::write(dir.path().join("rec.csv"), syn.record.to_csv()).unwrap();
+    let data = syn.record.aligned(None).unwrap();
+    let sse: f64 = data
+        .a
+        .iter()
+        .zip(&syn.clean)
+        .map(|(a, c)| (a - c).powi(2))
+        .sum();
+    let floor = sse / data.energy();
+    let clock = std::time::Instant::now();
+    let o = hbis(
+        dir.path(),
+        &[
+            "fit", "--data", "rec.csv", "--model", MODEL, "--out", "out", "--seed", "5",
+        ],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("out/fit.json")).unwrap())
+            .unwrap();
+    let e2 = v["e2"].as_f64().unwrap();
+    eprintln!(
+        "maxwell fit: e2/floor {:.4} in {:.1} s; map r_m {} tau_m {}",
+        e2 / floor,
+        clock.elapsed().as_secs_f64(),
+        v["map"]["r_m"],
+        v["map"]["tau_m"]
+    );
+    for (name, truth) in [("r_m", r_m), ("tau_m", tau_m)] {
+        let p = &v["posterior"][name];
+        let (lo, hi) = (p["q05"].as_f64().unwrap(), p["q95"].as_f64().unwrap());
+        eprintln!(
+            "{name}: truth {truth}, 90 % interval [{lo:.4}, {hi:.4}], covered: {}",
+            lo <= truth && truth <= hi
+        );
+    }
+    assert!(e2 <= 1.03 * floor, "e2 {e2} against the floor {floor}");
+    assert_eq!(v["sampling"]["converged"], true, "{}", v["sampling"]);
+}
