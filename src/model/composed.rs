@@ -263,6 +263,25 @@ impl Model {
             return system.accel_grid_into(start, dt, out, &SimOptions::default());
         }
         self.numeric_grid_into(theta, start, dt, out)
+            .map_err(|e| self.naming(e, theta))
+    }
+
+    /// A non-finite acceleration named with the parameter set that gave it.
+    fn naming(&self, e: SimError, theta: &[f64]) -> SimError {
+        match e {
+            SimError::NotFinite { t } => SimError::NotFiniteAt {
+                t,
+                model: self.name(),
+                params: self
+                    .layout
+                    .params()
+                    .zip(theta)
+                    .map(|(p, v)| format!("{} = {v}", p.name))
+                    .collect::<Vec<_>>()
+                    .join(", "),
+            },
+            e => e,
+        }
     }
 
     /// The motion (displacement, velocity, acceleration before output

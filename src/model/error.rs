@@ -97,6 +97,14 @@ pub enum SimError {
     /// that component, reported instead of propagated.
     #[error("the model's acceleration is not finite at t = {t:.6} s (a bug in a model component)")]
     NotFinite { t: f64 },
+    /// [`SimError::NotFinite`] with the model and the parameter set that
+    /// gave it.
+    #[error("`{model}`: the acceleration is not finite at t = {t:.6} s with {params} (a model component gives NaN or infinity there)")]
+    NotFiniteAt {
+        t: f64,
+        model: String,
+        params: String,
+    },
     /// The components carry more state variables than the engine holds.
     #[error("the model's components carry {found} state variables; the numerical engine holds at most {max}")]
     States { found: usize, max: usize },

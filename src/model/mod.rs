@@ -18,7 +18,9 @@
 pub mod catalog;
 pub mod component;
 pub mod composed;
+pub mod effect_file;
 pub mod error;
+pub mod expr;
 pub mod forced;
 pub mod friction;
 pub mod layout;

@@ -315,6 +315,7 @@ impl<'a> NumericSystem<'a> {
             let target = sp.next_event(branch, d);
             let b = branch;
             let (u_s, s_s) = (u, s);
+            let nan = NanWatch::default();
             let rhs = |tt: f64, y: &[f64; N]| {
                 let k = state(y, d, u_s, s_s);
                 let mut r = [0.0; N];
@@ -323,7 +324,7 @@ impl<'a> NumericSystem<'a> {
                 if N > 2 {
                     self.rates_into(&k, tt, &y[2..], &mut r[2..]);
                 }
-                r
+                nan.check(tt, &r)
             };
             let events = |_: f64, y: &[f64; N], g: &mut [f64]| {
                 g[0] = d * y[1];
@@ -373,7 +374,7 @@ impl<'a> NumericSystem<'a> {
             let ode = h_carry.map_or(ode, |h| ode.with_h_init(h).unwrap_or(ode));
             let outcome = ode
                 .solve(rhs, t, y0, t_end, 3 + kinks.len(), events, observe)
-                .map_err(|_| SimError::Diverged { t, u })?;
+                .map_err(|_| nan.error(t, u))?;
             if let Some(t) = bad {
                 return Err(SimError::NotFinite { t });
             }
@@ -455,10 +456,11 @@ impl<'a> NumericSystem<'a> {
             dir,
             travel: s,
         };
+        let nan = NanWatch::default();
         let rhs = |tt: f64, y: &[f64; N]| {
             let mut r = [0.0; N];
             self.rates_into(&at(d), tt, &y[2..], &mut r[2..]);
-            r
+            nan.check(tt, &r)
         };
         // Positive once the drive beats the friction that resists a start
         // in that direction (eq. 5.6 with the states' forces).
@@ -473,7 +475,7 @@ impl<'a> NumericSystem<'a> {
         [y0[0], y0[1]] = [u, 0.0];
         let out = ode
             .solve(rhs, t, y0, t_end, 2, events, |step| reached(step.t_end()))
-            .map_err(|_| SimError::Diverged { t, u })?;
+            .map_err(|_| nan.error(t, u))?;
         *x = out.y;
         check_states(&x[2..], out.t)?;
         let restart = match out.stop {
@@ -486,6 +488,28 @@ impl<'a> NumericSystem<'a> {
             reached(f64::INFINITY);
         }
         Ok((restart, out.t))
+    }
+}
+
+/// Watches the right-hand side for NaN: a component's NaN is reported as
+/// such, not as the divergence the solver would otherwise be taken for.
+#[derive(Default)]
+struct NanWatch(std::cell::Cell<Option<f64>>);
+
+impl NanWatch {
+    fn check<const N: usize>(&self, t: f64, r: &[f64; N]) -> [f64; N] {
+        if r.iter().any(|x| x.is_nan()) && self.0.get().is_none() {
+            self.0.set(Some(t));
+        }
+        *r
+    }
+
+    /// The solver's failure from `(t, u)`: NaN where one was seen.
+    fn error(&self, t: f64, u: f64) -> SimError {
+        match self.0.get() {
+            Some(t) => SimError::NotFinite { t },
+            None => SimError::Diverged { t, u },
+        }
     }
 }
 
@@ -659,6 +683,7 @@ impl NumericSystem<'_> {
                 let (u_s, s_s) = (u, s);
                 let state = |y: &[f64; N]| kin(y[0], y[1], d, s_s + d * (y[0] - u_s));
                 let force = |tt: f64, y: &[f64; N]| self.forces_at(b, &state(y), tt, &y[2..]);
+                let nan = NanWatch::default();
                 let rhs = |tt: f64, y: &[f64; N]| {
                     let mut r = [0.0; N];
                     r[0] = y[1];
@@ -666,7 +691,7 @@ impl NumericSystem<'_> {
                     if N > 2 {
                         self.rates_into(&state(y), tt, &y[2..], &mut r[2..]);
                     }
-                    r
+                    nan.check(tt, &r)
                 };
                 let extremum = 3 + kinks.len();
                 let events_fn = |tt: f64, y: &[f64; N], g: &mut [f64]| {
@@ -705,7 +730,7 @@ impl NumericSystem<'_> {
                 let ode = h_carry.map_or(ode, |h| ode.with_h_init(h).unwrap_or(ode));
                 let mut out = ode
                     .solve(rhs, t, y0, t_next, extremum + 2, events_fn, |_| {})
-                    .map_err(|_| SimError::Diverged { t, u })?;
+                    .map_err(|_| nan.error(t, u))?;
                 if out.stop == (Stop::Event { index: extremum }) && d * out.y[1] <= 0.0 {
                     // A minimum of the speed below zero: the stop came
                     // before it, inside a step. Again up to the minimum,
@@ -713,7 +738,7 @@ impl NumericSystem<'_> {
                     let t_min = out.t;
                     out = ode
                         .solve(rhs, t, y0, t_min, extremum, events_fn, |_| {})
-                        .map_err(|_| SimError::Diverged { t, u })?;
+                        .map_err(|_| nan.error(t, u))?;
                     if out.stop == Stop::End {
                         out.stop = Stop::Event { index: 0 };
                         out.y[1] = 0.0;
@@ -810,10 +835,11 @@ impl NumericSystem<'_> {
             dir,
             travel: s,
         };
+        let nan = NanWatch::default();
         let rhs = |tt: f64, y: &[f64; N]| {
             let mut r = [0.0; N];
             self.rates_into(&at(d), tt, &y[2..], &mut r[2..]);
-            r
+            nan.check(tt, &r)
         };
         let events = |tt: f64, y: &[f64; N], g: &mut [f64]| {
             let up = self.forces_at(branch, &at(1.0), tt, &y[2..]);
@@ -835,7 +861,7 @@ impl NumericSystem<'_> {
         [y0[0], y0[1]] = [u, 0.0];
         let out = ode
             .solve(rhs, t, y0, t_next, 2, events, |_| {})
-            .map_err(|_| SimError::Diverged { t, u })?;
+            .map_err(|_| nan.error(t, u))?;
         *x = out.y;
         check_states(&x[2..], out.t)?;
         Ok(match out.stop {
