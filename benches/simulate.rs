@@ -162,6 +162,23 @@ fn memory_engine(c: &mut Criterion) {
                 .unwrap()
         })
     });
+    // The same physics from the example effect file (expressions).
+    let mut registry = Registry::builtin();
+    registry
+        .load_effect_file(std::path::Path::new(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/examples/effects/maxwell.toml"
+        )))
+        .unwrap();
+    let file = registry
+        .parse("trilinear+lcfm+viscous+maxwell-file")
+        .unwrap();
+    let theta = file
+        .theta_from_params(&p, &[("r_mf", 0.15), ("tau_mf", 0.4)])
+        .unwrap();
+    c.bench_function("numeric_maxwell_file_test5_2401", |b| {
+        b.iter(|| file.accel_into(black_box(&theta), 0.005, &mut out).unwrap())
+    });
     let plain = Model::parse("trilinear+lcfm+viscous").unwrap();
     let theta = plain.theta_from_params(&p, &[]).unwrap();
     c.bench_function("closed_form_test5_2401", |b| {

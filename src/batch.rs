@@ -122,6 +122,9 @@ pub struct Study {
     pub seeds: Vec<u64>,
     /// Fit flags of every item.
     pub flags: Vec<String>,
+    /// Effect files (key `effects`), resolved against the manifest's
+    /// folder: every item is fitted with them loaded (`--effects`).
+    pub effects: Vec<PathBuf>,
 }
 
 /// One fit of the study: a record, a model, a seed.
@@ -305,15 +308,22 @@ impl Study {
         let table: toml::Table =
             toml::from_str(text).map_err(|e| BatchError::Syntax(e.to_string()))?;
         for k in table.keys() {
-            if !["models", "seeds", "fit", "record"].contains(&k.as_str()) {
+            if !["models", "seeds", "effects", "fit", "record"].contains(&k.as_str()) {
                 return Err(key_err(
                     k,
-                    "unknown key (expected models, seeds, [fit], [[record]])",
+                    "unknown key (expected models, seeds, effects, [fit], [[record]])",
                 ));
             }
         }
         let models = string_list(&table, "models")?;
         let seeds = seeds(&table)?;
+        let effects = match table.get("effects") {
+            Some(_) => string_list(&table, "effects")?
+                .iter()
+                .map(|p| base.join(p))
+                .collect(),
+            None => Vec::new(),
+        };
         let flags = match table.get("fit") {
             Some(toml::Value::Table(t)) => flags_of(t, "fit.", &[])?,
             Some(_) => return Err(key_err("fit", "expected a table ([fit])")),
@@ -347,6 +357,7 @@ impl Study {
             models,
             seeds,
             flags,
+            effects,
         })
     }
 
@@ -381,6 +392,9 @@ impl Study {
             "--out".into(),
             out.display().to_string(),
         ];
+        for e in &self.effects {
+            args.extend(["--effects".to_string(), e.display().to_string()]);
+        }
         args.extend(self.flags.iter().cloned());
         args.extend(r.flags.iter().cloned());
         args

@@ -515,6 +515,12 @@ impl FitDraws {
     /// Reads `fit.json` and `chains/chain-*.csv` of a folder `hbis fit`
     /// wrote (built-in components only).
     pub fn read(dir: &Path) -> Result<Self, PredictError> {
+        Self::read_with(dir, &Registry::builtin())
+    }
+
+    /// [`FitDraws::read`] with the model parsed by `registry` (a fit of a
+    /// model with a user's components).
+    pub fn read_with(dir: &Path, registry: &Registry) -> Result<Self, PredictError> {
         let fit_path = dir.join("fit.json");
         let text = read(&fit_path)?;
         let bad = |problem: String| PredictError::Fit {
@@ -526,9 +532,11 @@ impl FitDraws {
         let spec = json["model"]
             .as_str()
             .ok_or_else(|| bad("no `model` string".into()))?;
-        let model = Registry::builtin()
-            .parse(spec)
-            .map_err(|e| bad(format!("model `{spec}`: {e}")))?;
+        let model = registry.parse(spec).map_err(|e| {
+            bad(format!(
+                "model `{spec}`: {e} (an effect file's component needs --effects FILE)"
+            ))
+        })?;
         let seed = json["seed"]
             .as_u64()
             .ok_or_else(|| bad("no `seed` integer".into()))?;

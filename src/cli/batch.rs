@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, Result};
 use clap::Parser;
 use hbis::batch::{summary_header, summary_rows, Item, Shard, Study};
-use hbis::model::ForwardModel;
+use hbis::model::{ForwardModel, Registry};
 use hbis::report::outdir::{write_file_atomic, InputEntry, Manifest, MANIFEST};
 use serde::{Deserialize, Serialize};
 
@@ -51,6 +51,10 @@ struct ItemStamp {
     args: Vec<String>,
     /// SHA-256 of the record file.
     record_sha256: String,
+    /// SHA-256 of each effect file, in the manifest's order: an edited
+    /// effect file reruns the item.
+    #[serde(default)]
+    effects_sha256: Vec<String>,
 }
 
 const STAMP: &str = "batch-item.json";
@@ -173,7 +177,15 @@ fn plan(study: &Study, item: &Item, out: &Path) -> Result<Plan> {
     let sha = InputEntry::of(&record)
         .with_context(|| format!("record {}", record.display()))?
         .sha256;
-    let model = super::inputs::model(&item.model)?.name();
+    let mut registry = Registry::builtin();
+    let mut effects_sha256 = Vec::new();
+    for e in &study.effects {
+        registry
+            .load_effect_file(e)
+            .with_context(|| format!("effects: {}", e.display()))?;
+        effects_sha256.push(InputEntry::of(e)?.sha256);
+    }
+    let model = super::inputs::model(&registry, &item.model)?.name();
     // The output folder is where the results go, not what they are.
     let mut kept = args.clone();
     if let Some(i) = kept.iter().position(|x| x == "--out") {
@@ -186,6 +198,7 @@ fn plan(study: &Study, item: &Item, out: &Path) -> Result<Plan> {
         stamp: ItemStamp {
             args: kept,
             record_sha256: sha,
+            effects_sha256,
         },
         model,
         seed: item.seed,

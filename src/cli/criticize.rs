@@ -50,6 +50,8 @@ pub struct Args {
     /// Never offer these components as candidates (comma-separated names).
     #[arg(long, value_delimiter = ',')]
     exclude: Vec<String>,
+    #[command(flatten)]
+    effects: super::inputs::EffectArgs,
 }
 
 /// `hbis ladder`'s arguments: those of `hbis diagnose` and a step limit.
@@ -67,7 +69,7 @@ impl Args {
     /// The built-in registry with `--candidates` and `--exclude` applied.
     fn registry(&self) -> Result<Registry> {
         let names = |v: &[String]| v.iter().map(|s| s.trim().to_string()).collect::<Vec<_>>();
-        let mut registry = Registry::builtin();
+        let mut registry = self.effects.registry()?;
         if let Some(list) = &self.candidates {
             let list = names(list);
             let refs: Vec<&str> = list.iter().map(String::as_str).collect();
@@ -100,8 +102,8 @@ impl Args {
 /// how `auto` chose it.
 type Loaded = (Model, Aligned, Noise, Option<NoiseChoice>, Vec<Warning>);
 
-fn load(a: &Args) -> Result<Loaded> {
-    let model = super::inputs::model(&a.model)?;
+fn load(a: &Args, registry: &Registry) -> Result<Loaded> {
+    let model = super::inputs::model(registry, &a.model)?;
     // Refused before any computation.
     let asked = a.noise()?;
     let (data, warnings) = super::inputs::record(&a.data, &a.record, a.t0)?;
@@ -166,11 +168,11 @@ pub fn diagnose(a: Args) -> Result<()> {
         .out
         .clone()
         .unwrap_or_else(|| PathBuf::from("hbis-diagnose"));
-    super::inputs::model(&a.model)?;
-    a.noise()?;
     let registry = a.registry()?;
+    super::inputs::model(&registry, &a.model)?;
+    a.noise()?;
     let mut dir = OutDir::open(&out, &[&a.data], "diagnose")?;
-    let (model, data, noise, choice, warnings) = load(&a)?;
+    let (model, data, noise, choice, warnings) = load(&a, &registry)?;
     let _ = writeln!(
         std::io::stderr(),
         "fitting {}, then refitting it with each catalog candidate (multi-start)...",
@@ -305,20 +307,21 @@ pub fn run_ladder(l: LadderArgs) -> Result<()> {
         .out
         .clone()
         .unwrap_or_else(|| PathBuf::from("hbis-ladder"));
-    super::inputs::model(&a.model)?;
-    a.noise()?;
     let registry = a.registry()?;
+    super::inputs::model(&registry, &a.model)?;
+    a.noise()?;
     let mut dir = OutDir::open(&out, &[&a.data], "ladder")?;
-    let (model, data, noise, choice, warnings) = load(&a)?;
+    let (model, data, noise, choice, warnings) = load(&a, &registry)?;
     let start = model.name();
     let steps = ladder_steps(&registry, model, &data, noise, a.seed, l.max_steps)?;
     let mut err = std::io::stderr().lock();
     print_ladder(&mut err, &steps)?;
     let warnings = match steps.last() {
-        Some(s) => with_fit_warnings(warnings, &Registry::builtin().parse(&s.model)?, &s.fit),
+        Some(s) => with_fit_warnings(warnings, &registry.parse(&s.model)?, &s.fit),
         None => warnings,
     };
     let text = write_ladder(
+        &registry,
         &mut dir,
         &start,
         a.seed,
@@ -378,6 +381,7 @@ pub fn ladder_steps(
 /// Writes ladder.json, ladder.png and one residual figure per step.
 #[allow(clippy::too_many_arguments)]
 pub fn write_ladder(
+    registry: &Registry,
     out: &mut OutDir,
     start: &str,
     seed: u64,
@@ -454,7 +458,7 @@ pub fn write_ladder(
     let mut half = 0.0f64;
     let mut models = Vec::new();
     for s in steps {
-        let model = Registry::builtin().parse(&s.model)?;
+        let model = registry.parse(&s.model)?;
         let at_lag = data.clone().with_lag(s.lag);
         let mut accel = vec![0.0; at_lag.a.len()];
         at_lag.model_accel_into(&model, s.fit.model_theta(&model), &mut accel)?;

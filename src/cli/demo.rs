@@ -107,6 +107,7 @@ fn criticize(out: &mut impl Write, dir: &mut OutDir) -> Result<()> {
     let ladder_dir = dir.path("ladder");
     dir.set_prefix("ladder");
     super::criticize::write_ladder(
+        &Registry::builtin(),
         dir,
         "bilinear+coulomb",
         SEED,

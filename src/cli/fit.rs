@@ -26,6 +26,8 @@ pub struct Args {
     /// `bilinear+coulomb` or `trilinear+lcfm+viscous+velocity-friction+offset`.
     #[arg(long, default_value = "trilinear+lcfm+viscous")]
     model: String,
+    #[command(flatten)]
+    effects: inputs::EffectArgs,
     /// Prior file (JSON, or TOML if it ends in .toml); default: uniform within physical bounds.
     #[arg(long)]
     prior: Option<PathBuf>,
@@ -123,7 +125,8 @@ impl ChainArgs {
 }
 
 pub fn run(a: Args) -> Result<()> {
-    let model = inputs::model(&a.model)?;
+    let registry = a.effects.registry()?;
+    let model = inputs::model(&registry, &a.model)?;
     let noise = Noise::parse(&a.noise)
         .with_context(|| format!("--noise `{}`: expected `white` or `ar1`", a.noise))?;
     let (data, record_warnings) = inputs::record(&a.data, &a.record, a.t0)?;

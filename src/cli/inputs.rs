@@ -6,12 +6,35 @@ use anyhow::{Context, Result};
 use hbis::data::{record_warnings, AccelUnits, Aligned, Record, Warning};
 use hbis::model::{Model, ModelSpec, Params, Registry};
 
-/// Parse a model argument with the built-in registry (core laws and every
-/// catalog component).
-pub fn model(s: &str) -> Result<Model> {
-    Registry::builtin()
+/// `--effects FILE` (repeatable): a user's effect files, added to the
+/// built-in catalog.
+#[derive(Debug, Clone, Default, clap::Args)]
+pub struct EffectArgs {
+    /// An effect file (TOML) whose component joins the catalog: parsed in
+    /// --model, offered as a candidate (docs/components.md). Repeatable.
+    #[arg(long = "effects", value_name = "FILE")]
+    pub effects: Vec<std::path::PathBuf>,
+}
+
+impl EffectArgs {
+    /// The built-in registry with every effect file loaded.
+    pub fn registry(&self) -> Result<Registry> {
+        let mut registry = Registry::builtin();
+        for path in &self.effects {
+            registry
+                .load_effect_file(path)
+                .with_context(|| format!("--effects {}", path.display()))?;
+        }
+        Ok(registry)
+    }
+}
+
+/// Parse a model argument with `registry` (core laws, catalog components
+/// and the user's effects).
+pub fn model(registry: &Registry, s: &str) -> Result<Model> {
+    registry
         .parse(s)
-        .with_context(|| format!("--model `{s}`"))
+        .with_context(|| format!("--model `{s}` (an effect file's component needs --effects FILE)"))
 }
 
 /// Parse a closed-form core spec argument (spring, friction, damper).

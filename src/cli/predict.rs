@@ -23,6 +23,8 @@ pub struct Args {
     /// Model spec, to simulate one parameter set (with --params).
     #[arg(long, requires = "params")]
     model: Option<String>,
+    #[command(flatten)]
+    effects: inputs::EffectArgs,
     /// JSON file of the model's parameters, `{"u0": 0.1166, "uy": 0.01167, ...}`.
     #[arg(long, requires = "model")]
     params: Option<PathBuf>,
@@ -291,7 +293,9 @@ fn motion(a: &Args) -> Result<GroundMotion> {
 fn draws(a: &Args) -> Result<(Model, Vec<Draw>, Option<u64>)> {
     let (model, mut draws, seed) = match (&a.fit, &a.model, &a.params) {
         (Some(dir), _, _) => {
-            let fit = FitDraws::read(dir).with_context(|| format!("--fit {}", dir.display()))?;
+            let registry = a.effects.registry()?;
+            let fit = FitDraws::read_with(dir, &registry)
+                .with_context(|| format!("--fit {}", dir.display()))?;
             if fit.draws.len() < a.draws {
                 eprintln!(
                     "warning: the fit holds {} draws, fewer than --draws {}: all are used",
@@ -303,7 +307,7 @@ fn draws(a: &Args) -> Result<(Model, Vec<Draw>, Option<u64>)> {
             (fit.model, d, Some(fit.seed))
         }
         (None, Some(spec), Some(path)) => {
-            let model = inputs::model(spec)?;
+            let model = inputs::model(&a.effects.registry()?, spec)?;
             let theta = params(&model, path)?;
             (model, vec![Draw::new(theta)], None)
         }

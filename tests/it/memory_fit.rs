@@ -68,4 +68,78 @@ fn fit_recovers_a_maxwell_element() {
     }
     assert!(e2 <= 1.03 * floor, "e2 {e2} against the floor {floor}");
     assert_eq!(v["sampling"]["converged"], true, "{}", v["sampling"]);
+    // The posterior of a model with memory under an earthquake.
+    let o = hbis(
+        dir.path(),
+        &[
+            "predict",
+            "--fit",
+            "out",
+            "--synthetic",
+            "--draws",
+            "20",
+            "--out",
+            "pred",
+            "--json",
+        ],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let p: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    eprintln!("predict on the maxwell posterior: {}", p["summary"]);
+    assert_eq!(p["model"], MODEL, "{p}");
+}
+
+/// The example effect file, loaded with `--effects`: with the built-in
+/// `maxwell` excluded, the ladder's first step adds `maxwell-file` on a
+/// record made with the built-in, and its fit reaches the noise floor.
+#[test]
+fn the_ladder_adds_the_maxwell_effect_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let model = Registry::builtin().parse(MODEL).unwrap();
+    let truth = model
+        .theta_from_params(
+            &Params::table_8_1(5).unwrap(),
+            &[("r_m", 0.12), ("tau_m", 0.3)],
+        )
+        .unwrap();
+    let seed = 32;
+    eprintln!("record seed {seed}, ladder seed 1");
+    let mut rng = StdRng::seed_from_u64(seed);
+    let syn = synthesize(&model, &truth, 0.005, 2001, 0.015, &mut rng).unwrap();
+    std::fs::write(dir.path().join("rec.csv"), syn.record.to_csv()).unwrap();
+    let file = concat!(env!("CARGO_MANIFEST_DIR"), "/examples/effects/maxwell.toml");
+    let o = hbis(
+        dir.path(),
+        &[
+            "ladder",
+            "--data",
+            "rec.csv",
+            "--model",
+            "trilinear+lcfm+viscous",
+            "--effects",
+            file,
+            "--exclude",
+            "maxwell",
+            "--candidates",
+            "maxwell-file,offset",
+            "--max-steps",
+            "1",
+            "--out",
+            "lad",
+        ],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("lad/ladder.json")).unwrap())
+            .unwrap();
+    let steps = v["steps"].as_array().unwrap();
+    eprintln!("{}", stderr(&o));
+    assert_eq!(steps.len(), 2, "{}", stderr(&o));
+    assert_eq!(steps[1]["added"], "maxwell-file", "{}", stderr(&o));
+    assert_eq!(
+        v["final_model"],
+        "trilinear+lcfm+viscous+maxwell-file",
+        "{}",
+        stderr(&o)
+    );
 }
