@@ -65,19 +65,19 @@ const RESERVED: [&str; 11] = [
 /// An effect file that cannot be used.
 #[derive(Debug, Error)]
 pub enum EffectFileError {
-    #[error("cannot read effect file {path}: {source}")]
+    #[error("cannot read effect file {path}: {error}")]
     Read {
         path: String,
-        source: std::io::Error,
+        error: std::io::Error,
     },
     #[error("{path}: {message}")]
     Toml { path: String, message: String },
-    #[error("{path}:{line}: `{field}`: {source}")]
+    #[error("{path}:{line}: `{field}`: {error}")]
     Expr {
         path: String,
         line: usize,
         field: String,
-        source: ExprError,
+        error: ExprError,
     },
     #[error("{path}: {message}")]
     Invalid { path: String, message: String },
@@ -176,6 +176,17 @@ fn feature(name: &str) -> Option<FeatureKind> {
     })
 }
 
+/// The TOML parser's message on one line: where, then what (its source
+/// excerpt dropped).
+fn one_line(message: &str) -> String {
+    let lines: Vec<&str> = message.lines().map(str::trim).filter(|l| !l.is_empty()).collect();
+    match (lines.first(), lines.last()) {
+        (Some(a), Some(b)) if lines.len() > 1 => format!("{a}: {b}"),
+        (Some(a), _) => a.to_string(),
+        _ => String::new(),
+    }
+}
+
 /// 1-based line of byte offset `at` in `text`.
 fn line_of(text: &str, at: usize) -> usize {
     text[..at.min(text.len())].matches('\n').count() + 1
@@ -185,9 +196,9 @@ impl FileEffect {
     /// Reads and checks the effect file at `path`.
     pub fn load(path: &Path) -> Result<Self, EffectFileError> {
         let shown = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|source| EffectFileError::Read {
+        let text = std::fs::read_to_string(path).map_err(|error| EffectFileError::Read {
             path: shown.clone(),
-            source,
+            error,
         })?;
         Self::from_toml(&text, &shown)
     }
@@ -200,7 +211,7 @@ impl FileEffect {
         };
         let spec: FileSpec = toml::from_str(text).map_err(|e| EffectFileError::Toml {
             path: path.to_string(),
-            message: e.to_string().trim_end().replace('\n', " "),
+            message: one_line(&e.to_string()),
         })?;
         let h = &spec.effect;
         if h.name.is_empty() || h.name.contains('+') || h.name.trim() != h.name {
@@ -292,11 +303,11 @@ impl FileEffect {
             .chain(param_names)
             .collect();
         let compile = |field: String, e: &Spanned<String>, vars: &[&str]| {
-            Expr::compile(e.get_ref(), vars).map_err(|source| EffectFileError::Expr {
+            Expr::compile(e.get_ref(), vars).map_err(|error| EffectFileError::Expr {
                 path: path.to_string(),
                 line: line_of(text, e.span().start),
                 field,
-                source,
+                error,
             })
         };
         let mut release = Vec::new();
