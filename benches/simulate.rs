@@ -162,6 +162,14 @@ fn memory_engine(c: &mut Criterion) {
                 .unwrap()
         })
     });
+    // A spring law with memory: smooth Bouc-Wen hysteresis.
+    let bw = Registry::builtin().parse("bouc-wen+lcfm+viscous").unwrap();
+    let theta = bw
+        .theta_from_params(&p, &[("f2", p.f2), ("uy", p.uy), ("n", 1.5), ("beta", 0.6)])
+        .unwrap();
+    c.bench_function("numeric_bouc_wen_test5_2401", |b| {
+        b.iter(|| bw.accel_into(black_box(&theta), 0.005, &mut out).unwrap())
+    });
     // The same physics from the example effect file (expressions).
     let mut registry = Registry::builtin();
     registry

@@ -227,6 +227,14 @@ pub trait ForceComponent: Send + Sync {
     fn core(&self) -> Option<Core> {
         None
     }
+    /// Whether it is the rubber's spring law in place of the paper's
+    /// piecewise-linear ones: the model's spring slot then holds the linear
+    /// law (its `f0` is the initial stiffness, `k0` in [`Quantities`]) and
+    /// this component sets the spring force. It stands in the spring's
+    /// place in a spec (`bouc-wen+lcfm+viscous`).
+    fn spring_law(&self) -> bool {
+        false
+    }
     /// The core component this one replaces in a fitted model when added
     /// (`trilinear` upgrades `bilinear`).
     fn upgrades(&self) -> Option<&str> {

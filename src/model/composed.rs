@@ -149,7 +149,7 @@ impl Model {
     /// Whether a component of that name is part of the model (a core law
     /// included).
     pub fn has(&self, name: &str) -> bool {
-        self.spec.to_string().split('+').any(|p| p == name)
+        self.name().split('+').any(|p| p == name)
             || self.forces.iter().any(|c| c.name() == name)
             || self.outputs.iter().any(|c| c.name() == name)
     }
@@ -375,7 +375,12 @@ fn finite(specs: &[ParamSpec], values: &[f64]) -> Result<(), ParamError> {
 impl ForwardModel for Model {
     fn name(&self) -> String {
         let mut s = self.spec.to_string();
-        for c in &self.forces {
+        // A spring law with memory stands in the linear law's place.
+        let law = self.forces.iter().find(|c| c.spring_law());
+        if let Some(law) = law {
+            s = s.replacen("linear", law.name(), 1);
+        }
+        for c in self.forces.iter().filter(|c| !c.spring_law()) {
             s.push('+');
             s.push_str(c.name());
         }

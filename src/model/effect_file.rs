@@ -29,7 +29,7 @@
 //! assert_eq!(e.params()[0].name, "r_s");
 //! let bad = text.replace("r_s * k0 * u", "r_s * k0 * w");
 //! let err = FileEffect::from_toml(&bad, "spring.toml").unwrap_err().to_string();
-//! assert!(err.contains("spring.toml:17") && err.contains("`w`"), "{err}");
+//! assert!(err.contains("spring.toml:14") && err.contains("`w`"), "{err}");
 //! # Ok::<(), hbis::model::effect_file::EffectFileError>(())
 //! ```
 
@@ -66,10 +66,7 @@ const RESERVED: [&str; 11] = [
 #[derive(Debug, Error)]
 pub enum EffectFileError {
     #[error("cannot read effect file {path}: {error}")]
-    Read {
-        path: String,
-        error: std::io::Error,
-    },
+    Read { path: String, error: std::io::Error },
     #[error("{path}: {message}")]
     Toml { path: String, message: String },
     #[error("{path}:{line}: `{field}`: {error}")]
@@ -179,7 +176,11 @@ fn feature(name: &str) -> Option<FeatureKind> {
 /// The TOML parser's message on one line: where, then what (its source
 /// excerpt dropped).
 fn one_line(message: &str) -> String {
-    let lines: Vec<&str> = message.lines().map(str::trim).filter(|l| !l.is_empty()).collect();
+    let lines: Vec<&str> = message
+        .lines()
+        .map(str::trim)
+        .filter(|l| !l.is_empty())
+        .collect();
     match (lines.first(), lines.last()) {
         (Some(a), Some(b)) if lines.len() > 1 => format!("{a}: {b}"),
         (Some(a), _) => a.to_string(),

@@ -23,7 +23,8 @@
 use std::sync::Arc;
 
 use super::catalog::{
-    AsymmetricFriction, CoreLaw, Degradation, FrictionDecay, Maxwell, Offset, VelocityFriction,
+    AsymmetricFriction, BoucWen, CoreLaw, Degradation, FrictionDecay, Maxwell, Offset,
+    VelocityFriction,
 };
 use super::component::{Core, FeatureKind, ForceComponent, OutputComponent, Slot};
 use super::composed::Model;
@@ -33,7 +34,7 @@ use super::spec::{DamperKind, FrictionKind, ModelSpec, SpringKind};
 
 /// Built-in components parsed and fitted when named but offered as
 /// candidates only on request ([`Registry::offering`]).
-pub const OFFERED_ON_REQUEST: [&str; 1] = ["maxwell"];
+pub const OFFERED_ON_REQUEST: [&str; 2] = ["maxwell", "bouc-wen"];
 
 /// A registered component.
 #[derive(Clone)]
@@ -104,6 +105,7 @@ impl Registry {
         entries.push(Component::Force(Arc::new(FrictionDecay)));
         entries.push(Component::Force(Arc::new(Degradation)));
         entries.push(Component::Force(Arc::new(Maxwell)));
+        entries.push(Component::Force(Arc::new(BoucWen)));
         entries.push(Component::Output(Arc::new(Offset)));
         Self {
             entries,
@@ -224,6 +226,7 @@ impl Registry {
         let mut damper: Option<DamperKind> = None;
         let mut forces: Vec<Arc<dyn ForceComponent>> = Vec::new();
         let mut outputs: Vec<Arc<dyn OutputComponent>> = Vec::new();
+        let mut spring_law = false;
         let dup = |kind: &str| SpecError::Duplicate {
             spec: s.to_string(),
             kind: kind.to_string(),
@@ -257,6 +260,12 @@ impl Registry {
                         if forces.iter().any(|g| g.name() == part) {
                             return Err(dup(&format!("`{part}`")));
                         }
+                        if f.spring_law() {
+                            if spring_law {
+                                return Err(dup("a spring"));
+                            }
+                            spring_law = true;
+                        }
                         forces.push(f.clone());
                     }
                 },
@@ -268,6 +277,12 @@ impl Registry {
                 }
             }
         }
+        // A spring law with memory fills the slot with the linear law.
+        let spring = match (spring, spring_law) {
+            (Some(_), true) => return Err(dup("a spring")),
+            (None, true) => Some(SpringKind::Linear),
+            (k, false) => k,
+        };
         let spec = ModelSpec {
             spring: spring.ok_or_else(|| SpecError::NoSpring(s.to_string()))?,
             friction: friction.unwrap_or(FrictionKind::None),
@@ -310,6 +325,18 @@ impl Registry {
                         Some(spec) => model.with_spec(spec),
                         None => continue,
                     },
+                    None if f.spring_law() => {
+                        // A swap of the spring law: the slot's linear law
+                        // carries f0, the component the rest.
+                        if model.forces().iter().any(|g| g.spring_law()) {
+                            continue;
+                        }
+                        let spec = ModelSpec {
+                            spring: SpringKind::Linear,
+                            ..model.spec()
+                        };
+                        model.with_spec(spec).with_force(f.clone())
+                    }
                     None => {
                         if f.requires().is_some_and(|s| !model.fills(s)) {
                             continue;

@@ -10,12 +10,14 @@
 //! | `friction-decay` | force | `kappa_F` | numerical |
 //! | `degradation` | force | `kappa_k` | numerical |
 //! | `maxwell` | force with memory (`q_m`) | `r_m`, `tau_m` | numerical |
+//! | `bouc-wen` | spring law with memory (`z_bw`) | `f0` (core); `f2, uy, n, beta` | numerical |
 //! | `offset` | output | `a_off` | (output) |
 //!
 //! The release displacement `u0` belongs to the model itself: every model
 //! is released from it.
 
 mod asymmetric_friction;
+mod bouc_wen;
 mod core;
 mod degradation;
 mod friction_decay;
@@ -24,6 +26,7 @@ mod offset;
 mod velocity_friction;
 
 pub use asymmetric_friction::AsymmetricFriction;
+pub use bouc_wen::BoucWen;
 pub use core::CoreLaw;
 pub use degradation::Degradation;
 pub use friction_decay::FrictionDecay;
