@@ -41,7 +41,11 @@
 //! - [`report`]: CSV, `fit.json`, CmdStan chains, figures;
 //! - [`batch`]: studies of many records (manifest, items, shards, summary).
 
+// The CLI front end names the library as users do (`hbis::...`).
+extern crate self as hbis;
+
 pub mod batch;
+pub mod cli;
 pub mod criticism;
 pub mod data;
 pub mod inference;

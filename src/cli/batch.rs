@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, Result};
 use clap::Parser;
 use hbis::batch::{summary_header, summary_rows, Item, Shard, Study};
-use hbis::model::{ForwardModel, Registry};
+use hbis::model::ForwardModel;
 use hbis::report::outdir::{write_file_atomic, InputEntry, Manifest, MANIFEST};
 use serde::{Deserialize, Serialize};
 
@@ -177,7 +177,7 @@ fn plan(study: &Study, item: &Item, out: &Path) -> Result<Plan> {
     let sha = InputEntry::of(&record)
         .with_context(|| format!("record {}", record.display()))?
         .sha256;
-    let mut registry = Registry::builtin();
+    let mut registry = super::base_registry();
     let mut effects_sha256 = Vec::new();
     for e in &study.effects {
         registry

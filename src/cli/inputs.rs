@@ -19,7 +19,7 @@ pub struct EffectArgs {
 impl EffectArgs {
     /// The built-in registry with every effect file loaded.
     pub fn registry(&self) -> Result<Registry> {
-        let mut registry = Registry::builtin();
+        let mut registry = super::base_registry();
         for path in &self.effects {
             registry
                 .load_effect_file(path)

@@ -1,5 +1,21 @@
-//! Command-line parsing and dispatch. Every error is printed with its whole
-//! cause chain on one line; bad input exits with code 2.
+//! The `hbis` command line: parsing and dispatch over the library's
+//! runners. Every error is printed with its whole cause chain on one line;
+//! bad input exits with code 2. This front end alone uses `anyhow`; the
+//! library's own errors are `thiserror` types.
+//!
+//! A Rust user runs the whole command line over a registry of their own
+//! (their components parsed in `--model`, offered by `diagnose` and the
+//! ladder, simulated by `predict`) from a binary of theirs:
+//!
+//! ```no_run
+//! use hbis::model::Registry;
+//!
+//! fn main() -> std::process::ExitCode {
+//!     let registry = Registry::builtin(); // register your components here
+//!     hbis::cli::run(registry)
+//! }
+//! ```
+//! `examples/custom_cli.rs` does it with a gap spring.
 
 mod batch;
 mod convert;
@@ -48,10 +64,54 @@ enum Command {
     Batch(batch::Args),
 }
 
+/// The registry every command starts from (`--effects` adds to it).
+static BASE: std::sync::OnceLock<hbis::model::Registry> = std::sync::OnceLock::new();
+
+/// The registry the command line runs over: the one given to [`run`], or
+/// the built-in catalog.
+pub(crate) fn base_registry() -> hbis::model::Registry {
+    BASE.get()
+        .cloned()
+        .unwrap_or_else(hbis::model::Registry::builtin)
+}
+
+/// The whole command line over `registry` instead of the built-in
+/// catalog: arguments from the process, an exit code back (2 on bad
+/// input). Call it once per process.
+pub fn run(registry: hbis::model::Registry) -> ExitCode {
+    run_from(registry, std::env::args_os())
+}
+
+/// [`run`] with the arguments given (the first is the program's name).
+pub fn run_from<I, T>(registry: hbis::model::Registry, args: I) -> ExitCode
+where
+    I: IntoIterator<Item = T>,
+    T: Into<std::ffi::OsString> + Clone,
+{
+    if BASE.set(registry).is_err() {
+        let _ = writeln!(
+            std::io::stderr(),
+            "hbis: error: the command line's registry is set once per process"
+        );
+        return ExitCode::from(2);
+    }
+    let cli = match Cli::try_parse_from(args) {
+        Ok(c) => c,
+        Err(e) => {
+            let _ = e.print();
+            return ExitCode::from(if e.use_stderr() { 2 } else { 0 });
+        }
+    };
+    dispatch(cli)
+}
+
 /// Parse the arguments, run, and turn the outcome into an exit code.
 pub fn main() -> ExitCode {
     // clap prints its own usage errors and exits with code 2.
-    let cli = Cli::parse();
+    dispatch(Cli::parse())
+}
+
+fn dispatch(cli: Cli) -> ExitCode {
     let result = match cli.command {
         Command::Simulate(a) => simulate::run(a),
         Command::Convert(a) => convert::run(a),

@@ -15,6 +15,7 @@ mod cli_criticism;
 mod cli_fit;
 mod cli_fit_components;
 mod cli_predict;
+mod cli_registry;
 mod cli_reliability;
 mod closed_form_vs_rk;
 mod components;
