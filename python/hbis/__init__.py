@@ -37,21 +37,30 @@ def table_8_1(k: int) -> Dict[str, float]:
     return _hbis.table_8_1(int(k))
 
 
-def param_names(model: str = DEFAULT_MODEL) -> List[str]:
-    """The parameter names of ``model`` in their order (noise parameters excluded)."""
-    return _hbis.param_names(model)
+def _effects(effects: Sequence[str]) -> List[str]:
+    if isinstance(effects, (str, bytes)):
+        effects = [effects]
+    return [str(e) for e in effects]
+
+
+def param_names(model: str = DEFAULT_MODEL, *, effects: Sequence[str] = ()) -> List[str]:
+    """The parameter names of ``model`` in their order (noise parameters
+    excluded). ``effects``: effect files (TOML) whose components ``model``
+    may name, as the binary's ``--effects`` (docs/components.md)."""
+    return _hbis.param_names(model, effects=_effects(effects))
 
 
 def simulate(
-    model: str, params: Dict[str, float], dt: float, duration: float
+    model: str, params: Dict[str, float], dt: float, duration: float, *, effects: Sequence[str] = ()
 ) -> Tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Free vibration after release: arrays ``(t, u, v, a)`` at ``t_i = i dt``.
 
     ``params`` maps every parameter of ``model`` (see :func:`param_names`)
     to its value in SI units; an unknown or missing name is a ``ValueError``.
     ``a`` is what an accelerometer records (output components included).
+    ``effects``: effect files whose components ``model`` may name.
     """
-    return _hbis.simulate(model, dict(params), float(dt), float(duration))
+    return _hbis.simulate(model, dict(params), float(dt), float(duration), effects=_effects(effects))
 
 
 class Record:
@@ -107,11 +116,16 @@ def synthesize(
     n: int = 2001,
     noise: float = 0.015,
     seed: int = 1,
+    *,
+    effects: Sequence[str] = (),
 ) -> Synthetic:
     """``model`` with ``params`` sampled ``n`` times at ``dt`` plus white
     Gaussian noise of ``noise`` times the peak |a| (seeded, as the binary's
-    ``hbis synthesize``)."""
-    t, a, clean, sigma = _hbis.synthesize(model, dict(params), float(dt), int(n), float(noise), int(seed))
+    ``hbis synthesize``). ``effects``: effect files whose components
+    ``model`` may name."""
+    t, a, clean, sigma = _hbis.synthesize(
+        model, dict(params), float(dt), int(n), float(noise), int(seed), effects=_effects(effects)
+    )
     return Synthetic(t, a, clean, sigma, model, params)
 
 
@@ -135,9 +149,10 @@ class Fit:
         Ranking, weakest parameter, its explanation and the per-parameter table.
     """
 
-    def __init__(self, raw: Any, seed: int):
+    def __init__(self, raw: Any, seed: int, effects: Sequence[str] = ()):
         self._raw = raw
         self.seed = seed
+        self.effects: List[str] = list(effects)
         self.names: List[str] = list(raw.names)
         self.report: Dict[str, Any] = json.loads(raw.report_json)
         self.map: Dict[str, float] = dict(self.report["map"])
@@ -240,7 +255,7 @@ class Fit:
         masses = None
         if self._raw.physical is not None:
             masses = list(self._raw.physical.reshape(-1, len(PHYSICAL))[idx, 0])
-        return _predict(self.report["model"], pooled[idx], ag, dt, tail, capacity, masses)
+        return _predict(self.report["model"], pooled[idx], ag, dt, tail, capacity, masses, self.effects)
 
     def __repr__(self) -> str:
         conv = self.converged
@@ -274,6 +289,7 @@ def fit(
     design_target: Optional[float] = 0.5,
     thin: Optional[int] = None,
     progress: Optional[Callable[[int, int, float], None]] = None,
+    effects: Sequence[str] = (),
 ) -> Fit:
     """Fits ``record`` (a :class:`Record` or a ``(t, a)`` pair) with ``model``.
 
@@ -282,9 +298,11 @@ def fit(
     autocorrelation times long and split R-hat <= 1.01. ``progress``, if
     given, is called as ``progress(steps, target_steps, tau_max)`` while
     sampling (e.g. to drive a tqdm bar). The GIL is released while the fit
-    runs.
+    runs. ``effects``: effect files (TOML) whose components ``model`` may
+    name, as the binary's ``--effects``; :meth:`Fit.predict` uses them too.
     """
     t, a, t0 = _arrays(record)
+    effects = _effects(effects)
     raw = _hbis.fit(
         t,
         a,
@@ -305,15 +323,39 @@ def fit(
         design_target=design_target,
         thin=thin,
         progress=progress,
+        effects=effects,
     )
-    return Fit(raw, int(seed))
+    return Fit(raw, int(seed), effects)
 
 
-def diagnose(record, model: str, noise: str = "white", seed: int = 1) -> Dict[str, Any]:
+def diagnose(
+    record,
+    model: str,
+    noise: str = "white",
+    seed: int = 1,
+    *,
+    effects: Sequence[str] = (),
+    candidates: Optional[Sequence[str]] = None,
+    exclude: Sequence[str] = (),
+) -> Dict[str, Any]:
     """``hbis diagnose``: the fit of ``model``, its residual diagnosis and every
-    catalog candidate ranked (the keys of ``diagnosis.json``)."""
+    catalog candidate ranked (the keys of ``diagnosis.json``). ``effects``,
+    ``candidates`` and ``exclude`` are the binary's ``--effects``,
+    ``--candidates`` and ``--exclude``."""
     t, a, t0 = _arrays(record)
-    return json.loads(_hbis.diagnose(t, a, model, noise=noise, seed=int(seed), t0=t0))
+    return json.loads(
+        _hbis.diagnose(
+            t,
+            a,
+            model,
+            noise=noise,
+            seed=int(seed),
+            t0=t0,
+            effects=_effects(effects),
+            candidates=None if candidates is None else [str(c) for c in candidates],
+            exclude=[str(c) for c in exclude],
+        )
+    )
 
 
 def ladder(
@@ -323,13 +365,31 @@ def ladder(
     seed: int = 1,
     max_steps: int = 6,
     progress: Optional[Callable[[int, str], None]] = None,
+    *,
+    effects: Sequence[str] = (),
+    candidates: Optional[Sequence[str]] = None,
+    exclude: Sequence[str] = (),
 ) -> Dict[str, Any]:
     """``hbis ladder``: add the best supported effect, refit, repeat. Returns
     ``{"start", "seed", "noise", "noise_choice", "steps": [...]}``;
-    ``progress(k, model)`` is called after each step."""
+    ``progress(k, model)`` is called after each step. ``effects``,
+    ``candidates`` and ``exclude`` are the binary's ``--effects``,
+    ``--candidates`` and ``--exclude``."""
     t, a, t0 = _arrays(record)
     return json.loads(
-        _hbis.ladder(t, a, model, noise=noise, seed=int(seed), t0=t0, max_steps=max_steps, progress=progress)
+        _hbis.ladder(
+            t,
+            a,
+            model,
+            noise=noise,
+            seed=int(seed),
+            t0=t0,
+            max_steps=max_steps,
+            progress=progress,
+            effects=_effects(effects),
+            candidates=None if candidates is None else [str(c) for c in candidates],
+            exclude=[str(c) for c in exclude],
+        )
     )
 
 
@@ -371,10 +431,12 @@ class Prediction:
         return f"Prediction({self.per_draw.shape[0]} draws, peak displacement median {d['q50']:.4g} m)"
 
 
-def _predict(model, thetas, ag, dt, tail, capacity, masses) -> Prediction:
+def _predict(model, thetas, ag, dt, tail, capacity, masses, effects=()) -> Prediction:
     rows = [list(map(float, t)) for t in np.atleast_2d(np.asarray(thetas, dtype=float))]
     ag = np.ascontiguousarray(ag, dtype=float)
-    per_draw, text = _hbis.predict(model, rows, float(dt), ag, float(tail), capacity, masses)
+    per_draw, text = _hbis.predict(
+        model, rows, float(dt), ag, float(tail), capacity, masses, effects=_effects(effects)
+    )
     return Prediction(per_draw, json.loads(text))
 
 
@@ -386,11 +448,14 @@ def predict(
     tail: float = 20.0,
     capacity: Optional[float] = None,
     mass: Optional[float] = None,
+    *,
+    effects: Sequence[str] = (),
 ) -> Prediction:
     """One parameter set's response to a ground motion ``ag`` (m/s^2, step
     ``dt``) from rest, ``tail`` seconds after it ends (``hbis predict --model
-    --params``). For a fitted posterior use :meth:`Fit.predict`."""
-    names = param_names(model)
+    --params``). For a fitted posterior use :meth:`Fit.predict`.
+    ``effects``: effect files whose components ``model`` may name."""
+    names = param_names(model, effects=effects)
     extra = sorted(set(params) - set(names))
     if extra:
         raise ValueError(f"params: {extra[0]!r} is not a parameter of {model} (its parameters: {', '.join(names)})")
@@ -398,7 +463,7 @@ def predict(
     if missing:
         raise ValueError(f"params: {missing[0]!r} is missing (the parameters of {model}: {', '.join(names)})")
     theta = [[float(params[n]) for n in names]]
-    return _predict(model, theta, ag, dt, tail, capacity, None if mass is None else [float(mass)])
+    return _predict(model, theta, ag, dt, tail, capacity, None if mass is None else [float(mass)], effects)
 
 
 def ground_motion(

@@ -11,12 +11,12 @@ __version__: str
 Array = npt.NDArray[np.float64]
 
 def table_8_1(k: int) -> Dict[str, float]: ...
-def param_names(model: str) -> List[str]: ...
+def param_names(model: str, effects: List[str] = ...) -> List[str]: ...
 def simulate(
-    model: str, params: Dict[str, float], dt: float, duration: float
+    model: str, params: Dict[str, float], dt: float, duration: float, effects: List[str] = ...
 ) -> Tuple[Array, Array, Array, Array]: ...
 def synthesize(
-    model: str, params: Dict[str, float], dt: float, n: int, noise: float, seed: int
+    model: str, params: Dict[str, float], dt: float, n: int, noise: float, seed: int, effects: List[str] = ...
 ) -> Tuple[Array, Array, Array, float]: ...
 def read_record(path: str, units: str = "m/s2") -> Tuple[Array, Array]: ...
 def align(t: Array, a: Array, t0: Optional[float] = None) -> Tuple[Array, Array, float, str]: ...
@@ -53,9 +53,18 @@ def fit(
     thin: Optional[int] = None,
     source: str = "array",
     progress: Optional[Callable[[int, int, float], None]] = None,
+    effects: List[str] = ...,
 ) -> FitResult: ...
 def diagnose(
-    t: Array, a: Array, model: str, noise: str = "white", seed: int = 1, t0: Optional[float] = None
+    t: Array,
+    a: Array,
+    model: str,
+    noise: str = "white",
+    seed: int = 1,
+    t0: Optional[float] = None,
+    effects: List[str] = ...,
+    candidates: Optional[List[str]] = None,
+    exclude: List[str] = ...,
 ) -> str: ...
 def ladder(
     t: Array,
@@ -66,6 +75,9 @@ def ladder(
     t0: Optional[float] = None,
     max_steps: int = 6,
     progress: Optional[Callable[[int, str], None]] = None,
+    effects: List[str] = ...,
+    candidates: Optional[List[str]] = None,
+    exclude: List[str] = ...,
 ) -> str: ...
 def kanai_tajimi(
     seed: int, pga: float = ..., duration: float = 40.0, dt: float = 0.01, f_g: float = 2.5, zeta_g: float = 0.6
@@ -79,4 +91,5 @@ def predict(
     tail: float = 20.0,
     capacity: Optional[float] = None,
     masses: Optional[List[float]] = None,
+    effects: List[str] = ...,
 ) -> Tuple[Array, str]: ...

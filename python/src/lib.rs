@@ -34,8 +34,43 @@ fn value_error(msg: impl Into<String>) -> PyErr {
     PyValueError::new_err(msg.into())
 }
 
-fn parse_model(spec: &str) -> PyResult<Model> {
-    Registry::builtin()
+/// The built-in catalog with the effect files `effects` loaded (as the
+/// binary's `--effects`).
+fn registry(effects: &[String]) -> PyResult<Registry> {
+    let mut r = Registry::builtin();
+    for path in effects {
+        r.load_effect_file(std::path::Path::new(path))
+            .map_err(|e| value_error(format!("effects: {}", chain(&e))))?;
+    }
+    Ok(r)
+}
+
+/// The registry of `diagnose` and `ladder`: `effects` loaded, then
+/// `candidates` (only these offered) and `exclude` (never offered), as the
+/// binary's `--candidates` and `--exclude`.
+fn criticism_registry(
+    effects: &[String],
+    candidates: Option<Vec<String>>,
+    exclude: &[String],
+) -> PyResult<Registry> {
+    let mut r = registry(effects)?;
+    if let Some(list) = candidates {
+        let names: Vec<&str> = list.iter().map(String::as_str).collect();
+        r = r
+            .with_candidates(&names)
+            .map_err(|e| value_error(format!("candidates: {}", chain(&e))))?;
+    }
+    let names: Vec<&str> = exclude.iter().map(String::as_str).collect();
+    r.excluding(&names)
+        .map_err(|e| value_error(format!("exclude: {}", chain(&e))))
+}
+
+fn parse_model(spec: &str, effects: &[String]) -> PyResult<Model> {
+    parse_in(&registry(effects)?, spec)
+}
+
+fn parse_in(registry: &Registry, spec: &str) -> PyResult<Model> {
+    registry
         .parse(spec)
         .map_err(|e| value_error(format!("model `{spec}`: {}", chain(&e))))
 }
@@ -99,8 +134,9 @@ fn table_8_1(k: u32) -> PyResult<BTreeMap<String, f64>> {
 
 /// Parameter names of a model, in its order.
 #[pyfunction]
-fn param_names(model: &str) -> PyResult<Vec<String>> {
-    Ok(parse_model(model)?.layout().names())
+#[pyo3(signature = (model, effects=Vec::new()))]
+fn param_names(model: &str, effects: Vec<String>) -> PyResult<Vec<String>> {
+    Ok(parse_model(model, &effects)?.layout().names())
 }
 
 /// Simulates `model` from release: `(t, u, v, a)` at `t_i = i dt` over
@@ -108,6 +144,7 @@ fn param_names(model: &str) -> PyResult<Vec<String>> {
 /// components included); `u` and `v` are the motion (closed form when the
 /// model has one, otherwise the numerical engine).
 #[pyfunction]
+#[pyo3(signature = (model, params, dt, duration, effects=Vec::new()))]
 #[allow(clippy::type_complexity)]
 fn simulate<'py>(
     py: Python<'py>,
@@ -115,13 +152,14 @@ fn simulate<'py>(
     params: BTreeMap<String, f64>,
     dt: f64,
     duration: f64,
+    effects: Vec<String>,
 ) -> PyResult<(
     Bound<'py, PyArray1<f64>>,
     Bound<'py, PyArray1<f64>>,
     Bound<'py, PyArray1<f64>>,
     Bound<'py, PyArray1<f64>>,
 )> {
-    let m = parse_model(model)?;
+    let m = parse_model(model, &effects)?;
     let theta = theta_of(&m, &params)?;
     if !(dt.is_finite() && dt > 0.0 && duration.is_finite() && duration >= 0.0) {
         return Err(value_error(format!(
@@ -164,7 +202,8 @@ fn simulate<'py>(
 /// plus white Gaussian noise of `noise` times the peak |a| (seeded).
 /// Returns `(t, a, clean, sigma)`.
 #[pyfunction]
-#[allow(clippy::type_complexity)]
+#[pyo3(signature = (model, params, dt, n, noise, seed, effects=Vec::new()))]
+#[allow(clippy::type_complexity, clippy::too_many_arguments)]
 fn synthesize<'py>(
     py: Python<'py>,
     model: &str,
@@ -173,13 +212,14 @@ fn synthesize<'py>(
     n: usize,
     noise: f64,
     seed: u64,
+    effects: Vec<String>,
 ) -> PyResult<(
     Bound<'py, PyArray1<f64>>,
     Bound<'py, PyArray1<f64>>,
     Bound<'py, PyArray1<f64>>,
     f64,
 )> {
-    let m = parse_model(model)?;
+    let m = parse_model(model, &effects)?;
     let theta = theta_of(&m, &params)?;
     let mut rng = StdRng::seed_from_u64(seed);
     let s = synth(&m, &theta, dt, n, noise, &mut rng).map_err(err)?;
@@ -334,6 +374,7 @@ fn kept_arrays(
     map_only=false, ensembles=hbis::inference::sample::DEFAULT_ENSEMBLES, walkers=None, tau_multiple=50.0,
     max_steps=20_000, ess=None, moves=None, max_evals=200_000, evidence=false,
     forces=None, design_target=Some(0.5), thin=None, source="array", progress=None,
+    effects=Vec::new(),
 ))]
 #[allow(clippy::too_many_arguments)]
 fn fit(
@@ -358,8 +399,9 @@ fn fit(
     thin: Option<usize>,
     source: &str,
     progress: Option<Py<PyAny>>,
+    effects: Vec<String>,
 ) -> PyResult<FitResult> {
-    let m = parse_model(model)?;
+    let m = parse_model(model, &effects)?;
     let noise_model = parse_noise(noise)?;
     let data = aligned(t.as_slice()?, a.as_slice()?, t0)?;
     if thin == Some(0) {
@@ -461,6 +503,7 @@ fn fit(
 /// The start model, the record (release placed) and the noise model, as
 /// `hbis diagnose` and `hbis ladder` load them; `noise = "auto"` picks by BIC.
 fn criticism_inputs(
+    registry: &Registry,
     t: &[f64],
     a: &[f64],
     model: &str,
@@ -468,7 +511,7 @@ fn criticism_inputs(
     seed: u64,
     t0: Option<f64>,
 ) -> PyResult<(Model, Aligned, Noise, Option<String>)> {
-    let m = parse_model(model)?;
+    let m = parse_in(registry, model)?;
     let asked = match noise {
         "auto" => None,
         n => Some(Noise::parse(n).ok_or_else(|| {
@@ -490,7 +533,8 @@ fn criticism_inputs(
 /// `hbis diagnose` on arrays: the fit, its residual diagnosis and every
 /// catalog candidate ranked, as JSON text.
 #[pyfunction]
-#[pyo3(signature = (t, a, model, noise="white", seed=1, t0=None))]
+#[pyo3(signature = (t, a, model, noise="white", seed=1, t0=None, effects=Vec::new(), candidates=None, exclude=Vec::new()))]
+#[allow(clippy::too_many_arguments)]
 fn diagnose(
     py: Python<'_>,
     t: PyReadonlyArray1<'_, f64>,
@@ -499,12 +543,17 @@ fn diagnose(
     noise: &str,
     seed: u64,
     t0: Option<f64>,
+    effects: Vec<String>,
+    candidates: Option<Vec<String>>,
+    exclude: Vec<String>,
 ) -> PyResult<String> {
     let (t, a) = (t.as_slice()?.to_vec(), a.as_slice()?.to_vec());
+    let registry = criticism_registry(&effects, candidates, &exclude)?;
     let text = py.detach(|| -> PyResult<String> {
-        let (m, data, noise, choice) = criticism_inputs(&t, &a, model, noise, seed, t0)?;
+        let (m, data, noise, choice) =
+            criticism_inputs(&registry, &t, &a, model, noise, seed, t0)?;
         let (fit, diagnosis, ranked) = diagnose_model(
-            &Registry::builtin(),
+            &registry,
             &m,
             &data,
             noise,
@@ -534,7 +583,7 @@ fn diagnose(
 /// `hbis ladder` on arrays: the steps (each a fit, its diagnosis and the
 /// ranked candidates) as JSON text; `progress(step_index, model)` after each.
 #[pyfunction]
-#[pyo3(signature = (t, a, model, noise="white", seed=1, t0=None, max_steps=6, progress=None))]
+#[pyo3(signature = (t, a, model, noise="white", seed=1, t0=None, max_steps=6, progress=None, effects=Vec::new(), candidates=None, exclude=Vec::new()))]
 #[allow(clippy::too_many_arguments)]
 fn ladder(
     py: Python<'_>,
@@ -546,10 +595,14 @@ fn ladder(
     t0: Option<f64>,
     max_steps: usize,
     progress: Option<Py<PyAny>>,
+    effects: Vec<String>,
+    candidates: Option<Vec<String>>,
+    exclude: Vec<String>,
 ) -> PyResult<String> {
     let (t, a) = (t.as_slice()?.to_vec(), a.as_slice()?.to_vec());
+    let registry = criticism_registry(&effects, candidates, &exclude)?;
     py.detach(|| -> PyResult<String> {
-        let (m, data, noise, choice) = criticism_inputs(&t, &a, model, noise, seed, t0)?;
+        let (m, data, noise, choice) = criticism_inputs(&registry, &t, &a, model, noise, seed, t0)?;
         let mut k = 0usize;
         let mut on_step = |s: &hbis::criticism::Step| {
             if let Some(cb) = &progress {
@@ -560,7 +613,7 @@ fn ladder(
             k += 1;
         };
         let steps = ladder_observed(
-            &Registry::builtin(),
+            &registry,
             m.clone(),
             &data,
             noise,
@@ -644,7 +697,7 @@ fn read_motion<'py>(
 /// peak_base_shear, peak_total_acceleration)` as an `(n, 4)` array, and
 /// the summary as `predict.json` holds it (JSON text).
 #[pyfunction]
-#[pyo3(signature = (model, thetas, dt, ag, tail = 20.0, capacity = None, masses = None))]
+#[pyo3(signature = (model, thetas, dt, ag, tail = 20.0, capacity = None, masses = None, effects = Vec::new()))]
 #[allow(clippy::too_many_arguments)]
 fn predict<'py>(
     py: Python<'py>,
@@ -655,8 +708,9 @@ fn predict<'py>(
     tail: f64,
     capacity: Option<f64>,
     masses: Option<Vec<f64>>,
+    effects: Vec<String>,
 ) -> PyResult<(Bound<'py, PyArray2<f64>>, String)> {
-    let m = parse_model(model)?;
+    let m = parse_model(model, &effects)?;
     let width = m.layout().names().len();
     if let Some(bad) = thetas.iter().position(|t| t.len() != width) {
         return Err(value_error(format!(

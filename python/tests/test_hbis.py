@@ -300,3 +300,28 @@ def test_predict_one_parameter_set_and_bad_input(tmp_path):
         hbis.predict({k: v for k, v in hbis.table_8_1(5).items() if k != "u3"}, ag, 0.01)
     with pytest.raises(ValueError, match="tail"):
         hbis.predict(hbis.table_8_1(5), ag, 0.01, tail=-1.0)
+
+
+EFFECT = ROOT / "examples" / "effects" / "maxwell.toml"
+
+
+def test_an_effect_file_fits_as_the_binary_fits_it(tmp_path):
+    model = "trilinear+lcfm+viscous+maxwell-file"
+    effects = [str(EFFECT)]
+    with pytest.raises(ValueError, match="maxwell-file"):
+        hbis.param_names(model)
+    assert hbis.param_names(model, effects=effects)[-2:] == ["r_mf", "tau_mf"]
+    p = dict(hbis.table_8_1(5), r_mf=0.15, tau_mf=0.4)
+    syn = hbis.synthesize(model, p, dt=0.005, n=801, noise=0.015, seed=3, effects=effects)
+    syn.to_csv(str(tmp_path / "r.csv"))
+    o = run(["fit", "--data", "r.csv", "--model", model, "--effects", str(EFFECT), "--seed", "2",
+             "--map-only", "--max-evals", "3000", "--out", "f"], tmp_path)
+    assert o.returncode == 0, o.stderr
+    cli = json.loads((tmp_path / "f" / "fit.json").read_text())
+    py = hbis.fit(syn, model, seed=2, map_only=True, max_evals=3000, effects=effects)
+    assert py.map == cli["map"]
+    assert py.report["e2"] == cli["e2"]
+    with pytest.raises(ValueError, match="effects: .*nope.toml"):
+        hbis.simulate(model, p, 0.005, 1.0, effects=[str(tmp_path / "nope.toml")])
+    with pytest.raises(ValueError, match="candidates: .*maxwel"):
+        hbis.diagnose(syn, "trilinear+lcfm+viscous", candidates=["maxwel"])

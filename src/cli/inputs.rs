@@ -2,9 +2,9 @@
 
 use std::path::Path;
 
-use anyhow::{Context, Result};
+use anyhow::{bail, Context, Result};
 use hbis::data::{record_warnings, AccelUnits, Aligned, Record, Warning};
-use hbis::model::{Model, ModelSpec, Params, Registry};
+use hbis::model::{ForwardModel, Model, ModelSpec, Params, Registry};
 
 /// `--effects FILE` (repeatable): a user's effect files, added to the
 /// built-in catalog.
@@ -122,4 +122,41 @@ pub fn print_warnings(warnings: &[Warning]) {
     for w in warnings {
         let _ = writeln!(err, "{w}");
     }
+}
+
+/// Every parameter of `model` from a JSON object, by name.
+pub fn model_params(model: &Model, path: &Path) -> Result<Vec<f64>> {
+    let within = || format!("parameters {}", path.display());
+    let text = std::fs::read_to_string(path).with_context(within)?;
+    let value: serde_json::Value = serde_json::from_str(&text).with_context(within)?;
+    let Some(obj) = value.as_object() else {
+        bail!("{}: expected a JSON object of parameters", within());
+    };
+    let names = model.param_names();
+    if let Some(k) = obj.keys().find(|k| !names.contains(k)) {
+        bail!(
+            "{}: unknown parameter `{k}` for model `{}` (its parameters: {})",
+            within(),
+            model.name(),
+            names.join(", ")
+        );
+    }
+    let theta = names
+        .iter()
+        .map(|n| match obj.get(n) {
+            Some(v) => v.as_f64().filter(|x| x.is_finite()).with_context(|| {
+                format!(
+                    "{}: parameter `{n}` = {v}: expected a finite number",
+                    within()
+                )
+            }),
+            None => bail!(
+                "{}: missing parameter `{n}` of model `{}`",
+                within(),
+                model.name()
+            ),
+        })
+        .collect::<Result<Vec<_>>>()?;
+    model.check(&theta).with_context(within)?;
+    Ok(theta)
 }

@@ -308,7 +308,7 @@ fn draws(a: &Args) -> Result<(Model, Vec<Draw>, Option<u64>)> {
         }
         (None, Some(spec), Some(path)) => {
             let model = inputs::model(&a.effects.registry()?, spec)?;
-            let theta = params(&model, path)?;
+            let theta = inputs::model_params(&model, path)?;
             (model, vec![Draw::new(theta)], None)
         }
         _ => bail!("give --fit DIR, or --model SPEC with --params FILE"),
@@ -317,43 +317,6 @@ fn draws(a: &Args) -> Result<(Model, Vec<Draw>, Option<u64>)> {
         draws.iter_mut().for_each(|d| d.mass = Some(m));
     }
     Ok((model, draws, seed))
-}
-
-/// Every parameter of `model` from a JSON object, by name.
-fn params(model: &Model, path: &Path) -> Result<Vec<f64>> {
-    let within = || format!("parameters {}", path.display());
-    let text = std::fs::read_to_string(path).with_context(within)?;
-    let value: serde_json::Value = serde_json::from_str(&text).with_context(within)?;
-    let Some(obj) = value.as_object() else {
-        bail!("{}: expected a JSON object of parameters", within());
-    };
-    let names = model.param_names();
-    if let Some(k) = obj.keys().find(|k| !names.contains(k)) {
-        bail!(
-            "{}: unknown parameter `{k}` for model `{}` (its parameters: {})",
-            within(),
-            model.name(),
-            names.join(", ")
-        );
-    }
-    let theta = names
-        .iter()
-        .map(|n| match obj.get(n) {
-            Some(v) => v.as_f64().filter(|x| x.is_finite()).with_context(|| {
-                format!(
-                    "{}: parameter `{n}` = {v}: expected a finite number",
-                    within()
-                )
-            }),
-            None => bail!(
-                "{}: missing parameter `{n}` of model `{}`",
-                within(),
-                model.name()
-            ),
-        })
-        .collect::<Result<Vec<_>>>()?;
-    model.check(&theta).with_context(within)?;
-    Ok(theta)
 }
 
 fn draws_csv(model: &Model, draws: &[Draw], p: &Prediction, capacity: Option<f64>) -> String {

@@ -5,7 +5,7 @@ use std::path::PathBuf;
 
 use anyhow::{Context, Result};
 use hbis::model::response::grid_len;
-use hbis::model::{Response, SimError};
+use hbis::model::{ForwardModel, Response, SimError};
 use hbis::report;
 use hbis::report::outdir::{refuse_same_file, write_file_atomic, write_path_atomic};
 
@@ -13,9 +13,12 @@ use super::inputs;
 
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// Model spec, e.g. `trilinear+lcfm+viscous` or `bilinear+coulomb`.
+    /// Model spec, e.g. `trilinear+lcfm+viscous`, `bilinear+coulomb`, or any
+    /// registry model (`trilinear+lcfm+viscous+maxwell`, an effect file's).
     #[arg(long)]
     model: String,
+    #[command(flatten)]
+    effects: inputs::EffectArgs,
     /// JSON file of parameters, `{"u0": 0.1166, "uy": 0.01167, ...}`.
     #[arg(long)]
     params: PathBuf,
@@ -37,19 +40,13 @@ pub struct Args {
 }
 
 pub fn run(a: Args) -> Result<()> {
-    let spec = inputs::spec(&a.model)?;
+    let spec = match inputs::spec(&a.model) {
+        Ok(spec) => spec,
+        // Beyond the closed-form core: any model of the registry.
+        Err(_) => return run_model(&a),
+    };
     let params = inputs::params(&a.params, &spec)?;
-    check_positive("dt", a.dt)?;
-    check_positive("duration", a.duration)?;
-    if grid_len(a.dt, a.duration) < 2 {
-        anyhow::bail!(
-            "--duration {} is shorter than --dt {}: no samples after release",
-            a.duration,
-            a.dt
-        );
-    }
-    distinct_outputs(&a)?;
-    check_grid_size(a.dt, a.duration)?;
+    check_grid(&a)?;
     let response = Response::simulate(&spec, &params, a.duration)?;
     let samples = response.sample_grid(a.dt)?;
     let mut csv = Vec::new();
@@ -77,6 +74,71 @@ pub fn run(a: Args) -> Result<()> {
     let mut err = std::io::stderr().lock();
     super::demo::summary(&mut err, &response)?;
     err.flush()?;
+    Ok(())
+}
+
+/// The grid and the outputs, checked before anything runs.
+fn check_grid(a: &Args) -> Result<()> {
+    check_positive("dt", a.dt)?;
+    check_positive("duration", a.duration)?;
+    if grid_len(a.dt, a.duration) < 2 {
+        anyhow::bail!(
+            "--duration {} is shorter than --dt {}: no samples after release",
+            a.duration,
+            a.dt
+        );
+    }
+    distinct_outputs(a)?;
+    check_grid_size(a.dt, a.duration)
+}
+
+/// A model with components beyond the core: its motion by the engine the
+/// model runs on, written as `t,u,v,a,phase` (`a` as the accelerometer
+/// records it, output components included).
+fn run_model(a: &Args) -> Result<()> {
+    let registry = a.effects.registry()?;
+    let model = inputs::model(&registry, &a.model)?;
+    if let Some((flag, _)) = [("--phases", &a.phases), ("--figure", &a.figure)]
+        .into_iter()
+        .find(|(_, p)| p.is_some())
+    {
+        anyhow::bail!(
+            "{flag}: only for the closed-form core models (spring, friction, damper); `{}` has other components",
+            model.name()
+        );
+    }
+    let theta = inputs::model_params(&model, &a.params)?;
+    check_grid(a)?;
+    let n = grid_len(a.dt, a.duration);
+    let motion = model.motion_grid(&theta, 0.0, a.dt, n)?;
+    let mut accel = vec![0.0; n];
+    model.accel_into(&theta, a.dt, &mut accel)?;
+    let mut csv = String::from("t,u,v,a,phase\n");
+    for (i, (m, acc)) in motion.iter().zip(&accel).enumerate() {
+        csv += &format!(
+            "{},{},{},{},{}\n",
+            i as f64 * a.dt,
+            m.u,
+            m.v,
+            acc,
+            m.phase.as_str()
+        );
+    }
+    match &a.out {
+        Some(path) => write_file_atomic(path, &[&a.params], csv.as_bytes())?,
+        None => super::print_stdout(&csv)?,
+    }
+    let peak = motion.iter().map(|m| m.u.abs()).fold(0.0, f64::max);
+    let moving = motion
+        .iter()
+        .rposition(|m| m.v != 0.0)
+        .map_or(0.0, |i| i as f64 * a.dt);
+    let mut err = std::io::stderr().lock();
+    writeln!(
+        err,
+        "{}: {n} samples; peak |u| {peak:.6} m; last moving sample at t = {moving:.3} s",
+        model.name()
+    )?;
     Ok(())
 }
 

@@ -324,3 +324,55 @@ fn earthquake_quantiles_match_a_brute_force_loop(dir: &Path) {
         assert!(std::fs::metadata(dir.join(f)).unwrap().len() > 1000, "{f}");
     }
 }
+
+/// `hbis simulate` on a model beyond the closed-form core (a component with
+/// memory): `t,u,v,a,phase`, `a` equal to the library's acceleration; the
+/// closed-form-only outputs are refused by name.
+#[test]
+fn simulate_runs_any_registry_model() {
+    use hbis::model::{ForwardModel, Params, Registry};
+    let d = tempfile::tempdir().unwrap();
+    let model = Registry::builtin()
+        .parse("trilinear+lcfm+viscous+maxwell")
+        .unwrap();
+    let p = Params::table_8_1(5).unwrap();
+    let theta = model
+        .theta_from_params(&p, &[("r_m", 0.2), ("tau_m", 0.4)])
+        .unwrap();
+    let json: serde_json::Map<String, serde_json::Value> = model
+        .param_names()
+        .into_iter()
+        .zip(&theta)
+        .map(|(n, v)| (n, serde_json::json!(v)))
+        .collect();
+    std::fs::write(
+        d.path().join("p.json"),
+        serde_json::to_string(&json).unwrap(),
+    )
+    .unwrap();
+    let args = [
+        "simulate",
+        "--model",
+        "trilinear+lcfm+viscous+maxwell",
+        "--params",
+        "p.json",
+        "--dt",
+        "0.01",
+        "--duration",
+        "3",
+    ];
+    let o = hbis(d.path(), &args);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = String::from_utf8(o.stdout).unwrap();
+    let mut lines = text.lines();
+    assert_eq!(lines.next(), Some("t,u,v,a,phase"));
+    let a: Vec<f64> = lines
+        .map(|l| l.split(',').nth(3).unwrap().parse().unwrap())
+        .collect();
+    let mut expected = vec![0.0; 301];
+    model.accel_into(&theta, 0.01, &mut expected).unwrap();
+    assert_eq!(a, expected);
+    let o = hbis(d.path(), &[&args[..], &["--phases", "ph.csv"]].concat());
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("--phases"), "{}", stderr(&o));
+}
