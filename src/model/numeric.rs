@@ -294,9 +294,10 @@ impl<'a> NumericSystem<'a> {
                     }
                     return Ok(());
                 }
-                let (restart, t_r) = self.rest::<N>(
+                let (restart, t_r) = self.held::<N>(
                     (branch, u, s, last_dir),
                     (t, t_end),
+                    &|_| 0.0,
                     &mut x,
                     ode,
                     |ti_end| {
@@ -436,16 +437,20 @@ impl<'a> NumericSystem<'a> {
         Ok(())
     }
 
-    /// The mass at rest at `u` on `branch` (travel `s`, last sliding
-    /// direction `d`) from `t` to at most `t_end` while its components'
-    /// states evolve (`x[2..]`, updated): returns the direction in which it
-    /// starts to slide again, located as an event where the net force,
-    /// states included, leaves the friction band, and when; `None` and
-    /// `t_end` if it stays. `reached(t)` is told how far the rest goes.
-    fn rest<const N: usize>(
+    /// The mass held by the slider at `u` on `branch` (travel `s`, last
+    /// sliding direction `d`) from `t` to at most `t_end`, under the ground
+    /// acceleration `ag` (zero in a release test), while its components'
+    /// states evolve (`x[2..]`, updated): the direction in which it starts
+    /// to slide again and when, located as an event where the drive (the
+    /// spring's and the states' forces and `ag`) leaves the friction band
+    /// (eq. 5.6); `None` and `t_end` if it holds. `reached(t)` is told how
+    /// far the rest goes (infinity once it holds to the end).
+    #[allow(clippy::too_many_arguments)]
+    fn held<const N: usize>(
         &self,
         (branch, u, s, d): (SpringBranch, f64, f64, f64),
         (t, t_end): (f64, f64),
+        ag: &dyn Fn(f64) -> f64,
         x: &mut [f64; N],
         ode: Dopri5,
         mut reached: impl FnMut(f64),
@@ -463,14 +468,20 @@ impl<'a> NumericSystem<'a> {
             nan.check(tt, &r)
         };
         // Positive once the drive beats the friction that resists a start
-        // in that direction (eq. 5.6 with the states' forces).
+        // in that direction.
         let events = |tt: f64, y: &[f64; N], g: &mut [f64]| {
             let up = self.forces_at(branch, &at(1.0), tt, &y[2..]);
             let down = self.forces_at(branch, &at(-1.0), tt, &y[2..]);
-            let drive = up.spring + up.extra;
+            let drive = up.spring + up.extra + ag(tt);
             g[0] = -drive - up.friction.abs();
             g[1] = drive - down.friction.abs();
         };
+        let mut g = [0.0; 2];
+        events(t, x, &mut g);
+        // Already beyond the band (the ground moved on while stuck).
+        if let Some(k) = g.iter().position(|&gk| gk > 0.0) {
+            return Ok((Some(if k == 0 { 1.0 } else { -1.0 }), t));
+        }
         let mut y0 = *x;
         [y0[0], y0[1]] = [u, 0.0];
         let out = ode
@@ -487,7 +498,7 @@ impl<'a> NumericSystem<'a> {
             // The last step ends at t_end, after the last sample.
             reached(f64::INFINITY);
         }
-        Ok((restart, out.t))
+        Ok((restart, if restart.is_none() { t_end } else { out.t }))
     }
 }
 
@@ -639,8 +650,14 @@ impl NumericSystem<'_> {
                     if N > 2 {
                         // Stuck while the states evolve: the breakaway is
                         // an event of their integration.
-                        let (nd, t_b) =
-                            self.stuck(branch, (u, s, last_dir), (t, t_next), &ag, &mut x, ode)?;
+                        let (nd, t_b) = self.held(
+                            (branch, u, s, last_dir),
+                            (t, t_next),
+                            &ag,
+                            &mut x,
+                            ode,
+                            |_| {},
+                        )?;
                         t = t_b;
                         match nd {
                             Some(nd) => dir = Some(nd),
@@ -811,63 +828,6 @@ impl NumericSystem<'_> {
             peak_total_acceleration: peaks.total,
             deepest_branch: peaks.deepest,
             friction_floored: peaks.floored,
-        })
-    }
-
-    /// Stuck at `u` on `branch` (travel `s`, last sliding direction `d`)
-    /// from `t` to `t_next` under the ground acceleration `ag` while the
-    /// components' states evolve (`x[2..]`, updated): the direction of the
-    /// breakaway and its time, located where the drive (spring, states'
-    /// forces and `ag`) leaves the friction band; `None` if it holds.
-    #[allow(clippy::too_many_arguments)]
-    fn stuck<const N: usize>(
-        &self,
-        branch: SpringBranch,
-        (u, s, d): (f64, f64, f64),
-        (t, t_next): (f64, f64),
-        ag: &dyn Fn(f64) -> f64,
-        x: &mut [f64; N],
-        ode: Dopri5,
-    ) -> Result<(Option<f64>, f64), SimError> {
-        let at = |dir: f64| Kinematics {
-            u,
-            v: 0.0,
-            dir,
-            travel: s,
-        };
-        let nan = NanWatch::default();
-        let rhs = |tt: f64, y: &[f64; N]| {
-            let mut r = [0.0; N];
-            self.rates_into(&at(d), tt, &y[2..], &mut r[2..]);
-            nan.check(tt, &r)
-        };
-        let events = |tt: f64, y: &[f64; N], g: &mut [f64]| {
-            let up = self.forces_at(branch, &at(1.0), tt, &y[2..]);
-            let down = self.forces_at(branch, &at(-1.0), tt, &y[2..]);
-            let drive = up.spring + up.extra + ag(tt);
-            g[0] = -drive - up.friction.abs();
-            g[1] = drive - down.friction.abs();
-        };
-        let mut g = [0.0; 2];
-        events(t, x, &mut g);
-        // Already beyond the band at the start of the stretch.
-        if g[0] > 0.0 {
-            return Ok((Some(1.0), t));
-        }
-        if g[1] > 0.0 {
-            return Ok((Some(-1.0), t));
-        }
-        let mut y0 = *x;
-        [y0[0], y0[1]] = [u, 0.0];
-        let out = ode
-            .solve(rhs, t, y0, t_next, 2, events, |_| {})
-            .map_err(|_| nan.error(t, u))?;
-        *x = out.y;
-        check_states(&x[2..], out.t)?;
-        Ok(match out.stop {
-            Stop::End => (None, t_next),
-            Stop::Event { index: 0 } => (Some(1.0), out.t),
-            Stop::Event { .. } => (Some(-1.0), out.t),
         })
     }
 

@@ -375,42 +375,34 @@ fn an_unrelaxing_element_under_shaking_is_an_added_spring() {
     assert!(compared > 2_000, "{compared}");
 }
 
-/// `maxwell` is parsed and fitted when named but offered as a candidate
-/// only on request; offered, `diagnose` from the model without it ranks it
-/// first and supported on a record made with it (1.5 % noise), and the
-/// adopted fit reaches the noise floor within 3 %.
-#[test]
-fn maxwell_is_offered_on_request_and_found() {
+/// How a component offered on request is found: `diagnose` from
+/// `trilinear+lcfm+viscous`, offering `offered`, on a Test 5 record made
+/// with `truth` (1.5 % noise, record seed `seed`) ranks `effect` first and
+/// supported, extending to `extended`, and the adopted fit reaches the
+/// noise floor within 3 %.
+struct Found<'a> {
+    effect: &'a str,
+    offered: &'a [&'a str],
+    truth: &'a str,
+    values: &'a [(&'a str, f64)],
+    extended: &'a str,
+    seed: u64,
+}
+
+fn found(f: Found) {
     use hbis::criticism::{adopt, diagnose_model};
-    use hbis::data::synthesize;
     use hbis::inference::{MapSettings, Noise};
-    use rand::{rngs::StdRng, SeedableRng};
 
     let builtin = Registry::builtin();
+    assert!(!builtin.offered().contains(&f.effect));
     let start = builtin.parse("trilinear+lcfm+viscous").unwrap();
-    assert!(!builtin.offered().contains(&"maxwell"));
-    let registry = builtin
-        .with_candidates(&["maxwell", "offset", "asymmetric-friction"])
-        .unwrap();
-    let truth_model = registry.parse("trilinear+lcfm+viscous+maxwell").unwrap();
+    let registry = builtin.with_candidates(f.offered).unwrap();
+    let truth_model = registry.parse(f.truth).unwrap();
     let theta = truth_model
-        .theta_from_params(
-            &Params::table_8_1(5).unwrap(),
-            &[("r_m", 0.1), ("tau_m", 0.3)],
-        )
+        .theta_from_params(&Params::table_8_1(5).unwrap(), f.values)
         .unwrap();
-    let seed = 44;
-    eprintln!("record seed {seed}, diagnosis seed 1");
-    let mut rng = StdRng::seed_from_u64(seed);
-    let syn = synthesize(&truth_model, &theta, 0.005, 2001, 0.015, &mut rng).unwrap();
-    let data = syn.record.aligned(None).unwrap();
-    let sse: f64 = data
-        .a
-        .iter()
-        .zip(&syn.clean)
-        .map(|(a, c)| (a - c).powi(2))
-        .sum();
-    let floor = sse / data.energy();
+    eprintln!("record seed {}, diagnosis seed 1", f.seed);
+    let (_, data, floor) = crate::common::noisy_record(&truth_model, &theta, f.seed);
     let settings = MapSettings::default();
     let (fit, _, ranked) =
         diagnose_model(&registry, &start, &data, Noise::White, &settings, 1).unwrap();
@@ -419,11 +411,26 @@ fn maxwell_is_offered_on_request_and_found() {
         .map(|c| (c.effect.as_str(), c.delta_bic))
         .collect();
     eprintln!("start e2/floor {:.4}; ranking {names:?}", fit.e2 / floor);
-    assert_eq!(ranked[0].effect, "maxwell", "{names:?}");
+    assert_eq!(ranked[0].effect, f.effect, "{names:?}");
+    assert_eq!(ranked[0].extended.name(), f.extended);
     assert!(ranked[0].supported, "{names:?}");
     let adopted = adopt(&ranked[0], &data, &settings, 2).unwrap();
     eprintln!("adopted e2/floor {:.4}", adopted.e2 / floor);
     assert!(adopted.e2 <= 1.03 * floor, "{} vs {floor}", adopted.e2);
+}
+
+/// `maxwell` is parsed and fitted when named but offered as a candidate
+/// only on request; offered, it is found.
+#[test]
+fn maxwell_is_offered_on_request_and_found() {
+    found(Found {
+        effect: "maxwell",
+        offered: &["maxwell", "offset", "asymmetric-friction"],
+        truth: "trilinear+lcfm+viscous+maxwell",
+        values: &[("r_m", 0.1), ("tau_m", 0.3)],
+        extended: "trilinear+lcfm+viscous+maxwell",
+        seed: 44,
+    });
 }
 
 /// A Bouc-Wen spring (`n = 2`, where the virgin curve is exact) against the
@@ -456,50 +463,18 @@ fn bouc_wen_engine_matches_an_independent_integration() {
     }
 }
 
-/// `bouc-wen` is offered on request; offered, `diagnose` from
-/// `trilinear+lcfm+viscous` on a record made with a smooth Bouc-Wen spring
-/// ranks the swap of the spring law first and supported, and the adopted
-/// fit (`bouc-wen+lcfm+viscous`) reaches the noise floor within 3 %.
+/// `bouc-wen` is offered on request; offered, on a record made with a
+/// smooth Bouc-Wen spring the swap of the spring law is found
+/// (`bouc-wen+lcfm+viscous`).
 #[test]
 fn the_spring_law_is_swapped_for_bouc_wen() {
-    use hbis::criticism::{adopt, diagnose_model};
-    use hbis::data::synthesize;
-    use hbis::inference::{MapSettings, Noise};
-    use rand::{rngs::StdRng, SeedableRng};
-
-    let builtin = Registry::builtin();
-    assert!(!builtin.offered().contains(&"bouc-wen"));
-    let start = builtin.parse("trilinear+lcfm+viscous").unwrap();
-    let registry = builtin.with_candidates(&["bouc-wen", "offset"]).unwrap();
-    let truth_model = registry.parse("bouc-wen+lcfm+viscous").unwrap();
     let p = Params::table_8_1(5).unwrap();
-    let theta = truth_model
-        .theta_from_params(&p, &[("f2", p.f2), ("uy", p.uy), ("n", 1.5), ("beta", 0.6)])
-        .unwrap();
-    let seed = 45;
-    eprintln!("record seed {seed}, diagnosis seed 1");
-    let mut rng = StdRng::seed_from_u64(seed);
-    let syn = synthesize(&truth_model, &theta, 0.005, 2001, 0.015, &mut rng).unwrap();
-    let data = syn.record.aligned(None).unwrap();
-    let sse: f64 = data
-        .a
-        .iter()
-        .zip(&syn.clean)
-        .map(|(a, c)| (a - c).powi(2))
-        .sum();
-    let floor = sse / data.energy();
-    let settings = MapSettings::default();
-    let (fit, _, ranked) =
-        diagnose_model(&registry, &start, &data, Noise::White, &settings, 1).unwrap();
-    let names: Vec<(&str, f64)> = ranked
-        .iter()
-        .map(|c| (c.effect.as_str(), c.delta_bic))
-        .collect();
-    eprintln!("start e2/floor {:.4}; ranking {names:?}", fit.e2 / floor);
-    assert_eq!(ranked[0].effect, "bouc-wen", "{names:?}");
-    assert_eq!(ranked[0].extended.name(), "bouc-wen+lcfm+viscous");
-    assert!(ranked[0].supported, "{names:?}");
-    let adopted = adopt(&ranked[0], &data, &settings, 2).unwrap();
-    eprintln!("adopted e2/floor {:.4}", adopted.e2 / floor);
-    assert!(adopted.e2 <= 1.03 * floor, "{} vs {floor}", adopted.e2);
+    found(Found {
+        effect: "bouc-wen",
+        offered: &["bouc-wen", "offset"],
+        truth: "bouc-wen+lcfm+viscous",
+        values: &[("f2", p.f2), ("uy", p.uy), ("n", 1.5), ("beta", 0.6)],
+        extended: "bouc-wen+lcfm+viscous",
+        seed: 45,
+    });
 }

@@ -9,9 +9,7 @@ use crate::bin;
 
 use bin::{hbis, stderr};
 
-use hbis::data::synthesize;
 use hbis::model::{Params, Registry};
-use rand::{rngs::StdRng, SeedableRng};
 
 const MODEL: &str = "trilinear+lcfm+viscous+maxwell";
 
@@ -28,17 +26,8 @@ fn fit_recovers_a_maxwell_element() {
         .unwrap();
     let seed = 31;
     eprintln!("record seed {seed}, fit seed 5");
-    let mut rng = StdRng::seed_from_u64(seed);
-    let syn = synthesize(&model, &truth, 0.005, 2001, 0.015, &mut rng).unwrap();
+    let (syn, _, floor) = crate::common::noisy_record(&model, &truth, seed);
     std::fs::write(dir.path().join("rec.csv"), syn.record.to_csv()).unwrap();
-    let data = syn.record.aligned(None).unwrap();
-    let sse: f64 = data
-        .a
-        .iter()
-        .zip(&syn.clean)
-        .map(|(a, c)| (a - c).powi(2))
-        .sum();
-    let floor = sse / data.energy();
     let clock = std::time::Instant::now();
     let o = hbis(
         dir.path(),
@@ -104,8 +93,7 @@ fn the_ladder_adds_the_maxwell_effect_file() {
         .unwrap();
     let seed = 32;
     eprintln!("record seed {seed}, ladder seed 1");
-    let mut rng = StdRng::seed_from_u64(seed);
-    let syn = synthesize(&model, &truth, 0.005, 2001, 0.015, &mut rng).unwrap();
+    let (syn, _, _) = crate::common::noisy_record(&model, &truth, seed);
     std::fs::write(dir.path().join("rec.csv"), syn.record.to_csv()).unwrap();
     let file = concat!(env!("CARGO_MANIFEST_DIR"), "/examples/effects/maxwell.toml");
     let o = hbis(

@@ -132,3 +132,24 @@ pub fn cases(seed: u64, count: usize) -> Vec<Case> {
     let mut rng = StdRng::seed_from_u64(seed);
     (0..count).map(|i| random_case(&mut rng, i)).collect()
 }
+
+/// A 10 s, 200 Hz record of `model` at `theta` with white noise of 1.5 %
+/// of its peak (seeded), the record aligned, and its noise floor: the `e2`
+/// of the noise-free record on it.
+pub fn noisy_record(
+    model: &hbis::model::Model,
+    theta: &[f64],
+    seed: u64,
+) -> (hbis::data::Synthetic, hbis::data::Aligned, f64) {
+    let mut rng = StdRng::seed_from_u64(seed);
+    let syn = hbis::data::synthesize(model, theta, 0.005, 2001, 0.015, &mut rng).unwrap();
+    let data = syn.record.aligned(None).unwrap();
+    let sse: f64 = data
+        .a
+        .iter()
+        .zip(&syn.clean)
+        .map(|(a, c)| (a - c).powi(2))
+        .sum();
+    let floor = sse / data.energy();
+    (syn, data, floor)
+}
