@@ -481,6 +481,24 @@ mod tests {
     }
 
     #[test]
+    fn effect_files_resolve_against_the_manifest_and_reach_every_item() {
+        let s = study(
+            "models = [\"trilinear+lcfm+viscous+maxwell-file\"]\nseeds = [1]\neffects = [\"fx/m.toml\"]\n[[record]]\npath = \"x.csv\"\n",
+        )
+        .unwrap();
+        assert_eq!(s.effects, [Path::new("/s/fx/m.toml")]);
+        let args = s.fit_args(&s.items()[0], Path::new("out"));
+        let at = args.iter().position(|a| a == "--effects").unwrap();
+        assert_eq!(args[at + 1], "/s/fx/m.toml");
+        let e = study(
+            "models = [\"a\"]\nseeds = [1]\neffects = \"m.toml\"\n[[record]]\npath = \"x.csv\"\n",
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("effects"), "{e}");
+    }
+
+    #[test]
     fn items_are_records_models_seeds_in_order_and_shards_partition_them() {
         let s = study(
             "models = [\"a\", \"b\"]\nseeds = [3, 4, 5]\n[[record]]\npath = \"x.csv\"\n[[record]]\npath = \"y/z.csv\"\nname = \"zz\"\n",
