@@ -68,9 +68,12 @@ impl<'a> NumericSystem<'a> {
     /// `system` (piecewise-linear components already configured) with the
     /// components `terms` and their parameter values.
     pub fn with_terms(system: System, terms: &'a [(&'a dyn ForceComponent, &'a [f64])]) -> Self {
-        let mut offsets = vec![0];
+        let mut offsets = Vec::with_capacity(terms.len() + 1);
+        let mut total = 0;
+        offsets.push(total);
         for (c, _) in terms {
-            offsets.push(offsets.last().unwrap() + c.states().len());
+            total += c.states().len();
+            offsets.push(total);
         }
         let q = Quantities {
             k0: system.spring().k0(),
