@@ -85,7 +85,7 @@ pub fn fit_one(seed: u64) -> Outcome {
     .expect("a fit");
     let second = fit.second_search;
     Outcome {
-        warned: hbis::report::sanity::structured_at(&fit.posterior, &fit.map.theta).is_some(),
+        warned: hbis::criticism::sanity::structured_at(&fit.posterior, &fit.map.theta).is_some(),
         seed,
         ratio: fit.map.eval.e2 / floor,
         second: second.map(|s| s.kept_second),

@@ -35,22 +35,25 @@
 //!   synthetic ones;
 //! - [`inference`]: priors, likelihood, posterior, CMA-ES, polish, the
 //!   ensemble sampler, diagnostics, summaries, identifiability, TMCMC;
-//! - [`study`]: one record end to end (MAP, posterior, reports);
+//! - [`study`]: the runners, one per job (fit, diagnose and ladder,
+//!   predict, batch), that every front end calls;
 //! - [`criticism`]: residual diagnostics, effects as components, ranking of
 //!   missing effects, the ladder;
 //! - [`report`]: CSV, `fit.json`, CmdStan chains, figures;
-//! - [`batch`]: studies of many records (manifest, items, shards, summary).
+//! - [`cli`]: the `hbis` command line, arguments and printing over the
+//!   runners.
 
 // The CLI front end names the library as users do (`hbis::...`).
 extern crate self as hbis;
 
-pub mod batch;
 pub mod cli;
 pub mod criticism;
 pub mod data;
 pub mod inference;
 pub mod model;
 pub mod numeric;
-pub mod predict;
 pub mod report;
 pub mod study;
+
+// Their place before the runners moved under `study/`.
+pub use study::{batch, predict};

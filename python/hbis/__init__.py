@@ -71,6 +71,9 @@ class Record:
         self.t = np.ascontiguousarray(t, dtype=float)
         self.a = np.ascontiguousarray(a, dtype=float)
         self.t0 = t0
+        # What the reports name it (`data.source`): the file it was read
+        # from, as the binary names its --data.
+        self.source = "array"
         # Checked now, so a bad record fails where it is made.
         self.aligned_t, self.aligned_a, self.release, self.release_source = _hbis.align(
             self.t, self.a, t0
@@ -82,7 +85,9 @@ class Record:
         ``t`` and ``a``, or whitespace-separated text), converting the
         acceleration from ``units`` (``m/s2``, ``g``, ``mm/s2``) to m/s^2."""
         t, a = _hbis.read_record(str(path), units)
-        return cls(t, a, t0)
+        record = cls(t, a, t0)
+        record.source = str(path)
+        return record
 
     def to_csv(self, path: str) -> None:
         """Writes the record as the ``t,a`` CSV the binary reads."""
@@ -263,11 +268,11 @@ class Fit:
         return f"Fit({self.report['model']}, {len(self.names)} parameters, {state})"
 
 
-def _arrays(record) -> Tuple[np.ndarray, np.ndarray, Optional[float]]:
+def _arrays(record) -> Tuple[np.ndarray, np.ndarray, Optional[float], str]:
     if isinstance(record, Record):
-        return record.t, record.a, record.t0
+        return record.t, record.a, record.t0, record.source
     t, a = record
-    return np.ascontiguousarray(t, dtype=float), np.ascontiguousarray(a, dtype=float), None
+    return np.ascontiguousarray(t, dtype=float), np.ascontiguousarray(a, dtype=float), None, "array"
 
 
 def fit(
@@ -290,6 +295,7 @@ def fit(
     thin: Optional[int] = None,
     progress: Optional[Callable[[int, int, float], None]] = None,
     effects: Sequence[str] = (),
+    source: Optional[str] = None,
 ) -> Fit:
     """Fits ``record`` (a :class:`Record` or a ``(t, a)`` pair) with ``model``.
 
@@ -300,8 +306,10 @@ def fit(
     sampling (e.g. to drive a tqdm bar). The GIL is released while the fit
     runs. ``effects``: effect files (TOML) whose components ``model`` may
     name, as the binary's ``--effects``; :meth:`Fit.predict` uses them too.
+    ``source``: the record's name in the report (``data.source``; default:
+    the file a :class:`Record` was read from, else ``"array"``).
     """
-    t, a, t0 = _arrays(record)
+    t, a, t0, named = _arrays(record)
     effects = _effects(effects)
     raw = _hbis.fit(
         t,
@@ -324,6 +332,7 @@ def fit(
         thin=thin,
         progress=progress,
         effects=effects,
+        source=named if source is None else str(source),
     )
     return Fit(raw, int(seed), effects)
 
@@ -337,12 +346,15 @@ def diagnose(
     effects: Sequence[str] = (),
     candidates: Optional[Sequence[str]] = None,
     exclude: Sequence[str] = (),
+    source: Optional[str] = None,
 ) -> Dict[str, Any]:
     """``hbis diagnose``: the fit of ``model``, its residual diagnosis and every
-    catalog candidate ranked (the keys of ``diagnosis.json``). ``effects``,
-    ``candidates`` and ``exclude`` are the binary's ``--effects``,
-    ``--candidates`` and ``--exclude``."""
-    t, a, t0 = _arrays(record)
+    catalog candidate ranked: ``diagnosis.json`` as a dict, key for key (the
+    same runner makes both). ``effects``, ``candidates`` and ``exclude`` are
+    the binary's ``--effects``, ``--candidates`` and ``--exclude``;
+    ``source`` is ``data.source`` (default: the file a :class:`Record` was
+    read from, else ``"array"``)."""
+    t, a, t0, named = _arrays(record)
     return json.loads(
         _hbis.diagnose(
             t,
@@ -354,6 +366,7 @@ def diagnose(
             effects=_effects(effects),
             candidates=None if candidates is None else [str(c) for c in candidates],
             exclude=[str(c) for c in exclude],
+            source=named if source is None else str(source),
         )
     )
 
@@ -369,13 +382,14 @@ def ladder(
     effects: Sequence[str] = (),
     candidates: Optional[Sequence[str]] = None,
     exclude: Sequence[str] = (),
+    source: Optional[str] = None,
 ) -> Dict[str, Any]:
     """``hbis ladder``: add the best supported effect, refit, repeat. Returns
-    ``{"start", "seed", "noise", "noise_choice", "steps": [...]}``;
-    ``progress(k, model)`` is called after each step. ``effects``,
-    ``candidates`` and ``exclude`` are the binary's ``--effects``,
-    ``--candidates`` and ``--exclude``."""
-    t, a, t0 = _arrays(record)
+    ``ladder.json`` as a dict, key for key (``model``, ``final_model``,
+    ``steps``, ...); ``progress(k, model)`` is called after each step.
+    ``effects``, ``candidates``, ``exclude`` and ``source`` are as in
+    :func:`diagnose`."""
+    t, a, t0, named = _arrays(record)
     return json.loads(
         _hbis.ladder(
             t,
@@ -389,6 +403,7 @@ def ladder(
             effects=_effects(effects),
             candidates=None if candidates is None else [str(c) for c in candidates],
             exclude=[str(c) for c in exclude],
+            source=named if source is None else str(source),
         )
     )
 

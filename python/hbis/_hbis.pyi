@@ -65,6 +65,7 @@ def diagnose(
     effects: List[str] = ...,
     candidates: Optional[List[str]] = None,
     exclude: List[str] = ...,
+    source: str = ...,
 ) -> str: ...
 def ladder(
     t: Array,
@@ -78,6 +79,7 @@ def ladder(
     effects: List[str] = ...,
     candidates: Optional[List[str]] = None,
     exclude: List[str] = ...,
+    source: str = ...,
 ) -> str: ...
 def kanai_tajimi(
     seed: int, pga: float = ..., duration: float = 40.0, dt: float = 0.01, f_g: float = 2.5, zeta_g: float = 0.6

@@ -10,14 +10,14 @@
 use std::collections::BTreeMap;
 use std::error::Error as StdError;
 
-use hbis::criticism::{choose_noise, diagnose_model, ladder_observed, place_release};
 use hbis::data::{synthesize as synth, Aligned, Record};
 use hbis::inference::ensemble::Moves;
 use hbis::inference::map::MapSettings;
 use hbis::inference::sample::{Progress, SampleSettings};
 use hbis::inference::{Noise, Posterior};
 use hbis::model::{ForwardModel, Model, Params, Registry, Response, SimOptions};
-use hbis::report::json::{DataInfo, FitReport};
+use hbis::study::criticize::{self, Setup};
+use hbis::study::outputs::{fit_report, ChainOptions, FitRun};
 use hbis::study::{fit_record, FitOptions};
 use numpy::ndarray::{Array2, Array3};
 use numpy::{IntoPyArray, PyArray1, PyArray2, PyArray3, PyReadonlyArray1};
@@ -234,9 +234,20 @@ fn synthesize<'py>(
 /// A record checked as the binary checks a file, then aligned at the
 /// release (detected, or `t0` in the record's clock).
 fn aligned(t: &[f64], a: &[f64], t0: Option<f64>) -> PyResult<Aligned> {
-    Record::new(t.to_vec(), a.to_vec())
-        .and_then(|r| r.aligned(t0))
-        .map_err(err)
+    Ok(aligned_with_warnings(t, a, t0)?.0)
+}
+
+/// [`aligned`] with the record's warnings, as the binary's reports list
+/// them first.
+fn aligned_with_warnings(
+    t: &[f64],
+    a: &[f64],
+    t0: Option<f64>,
+) -> PyResult<(Aligned, Vec<hbis::data::Warning>)> {
+    let record = Record::new(t.to_vec(), a.to_vec()).map_err(err)?;
+    let data = record.aligned(t0).map_err(err)?;
+    let warnings = hbis::data::record_warnings(&record, &data);
+    Ok((data, warnings))
 }
 
 /// Reads a record file as the binary does (CSV with columns `t`, `a`, or
@@ -403,7 +414,7 @@ fn fit(
 ) -> PyResult<FitResult> {
     let m = parse_model(model, &effects)?;
     let noise_model = parse_noise(noise)?;
-    let data = aligned(t.as_slice()?, a.as_slice()?, t0)?;
+    let (data, record_warnings) = aligned_with_warnings(t.as_slice()?, a.as_slice()?, t0)?;
     if thin == Some(0) {
         return Err(value_error(
             "thin = 0: expected a whole number of steps >= 1 (1 keeps every step)",
@@ -448,7 +459,6 @@ fn fit(
         design_target,
     };
     let priors = Posterior::default_priors(&m, noise_model);
-    let spec = m.name();
     let fitted = py
         .detach(|| {
             let mut report = |p: Progress| {
@@ -459,14 +469,7 @@ fn fit(
                     });
                 }
             };
-            fit_record(
-                m,
-                data.clone(),
-                Some(priors),
-                noise_model,
-                &options,
-                &mut report,
-            )
+            fit_record(m, data, Some(priors), noise_model, &options, &mut report)
         })
         .map_err(err)?;
     let every = match (&fitted.sample, thin) {
@@ -474,12 +477,19 @@ fn fit(
         (Some(s), None) => hbis::report::cmdstan::auto_thin(s),
         (None, _) => 1,
     };
-    let report = FitReport::from_fit(
-        &spec,
+    let run = FitRun {
+        source: source.to_string(),
         seed,
-        noise_model,
-        DataInfo::new(source, &data),
+        noise: noise_model,
+        record_warnings,
+        chains: ChainOptions {
+            thin,
+            ..Default::default()
+        },
+    };
+    let report = fit_report(
         &fitted,
+        &run,
         Vec::new(),
         fitted.sample.as_ref().map(|_| every),
     );
@@ -501,8 +511,9 @@ fn fit(
 }
 
 /// The start model, the record (release placed) and the noise model, as
-/// `hbis diagnose` and `hbis ladder` load them; `noise = "auto"` picks by BIC.
-fn criticism_inputs(
+/// `hbis diagnose` and `hbis ladder` set them up; `noise = "auto"` picks by BIC.
+#[allow(clippy::too_many_arguments)]
+fn criticism_setup(
     registry: &Registry,
     t: &[f64],
     a: &[f64],
@@ -510,30 +521,22 @@ fn criticism_inputs(
     noise: &str,
     seed: u64,
     t0: Option<f64>,
-) -> PyResult<(Model, Aligned, Noise, Option<String>)> {
+    source: &str,
+) -> PyResult<Setup> {
     let m = parse_in(registry, model)?;
-    let asked = match noise {
-        "auto" => None,
-        n => Some(Noise::parse(n).ok_or_else(|| {
-            value_error(format!("noise `{n}`: expected `white`, `ar1` or `auto`"))
-        })?),
-    };
-    let data = aligned(t, a, t0)?;
-    let data = place_release(&m, data, &MapSettings::default(), seed ^ 0x7E1E_A5E0).map_err(err)?;
-    Ok(match asked {
-        Some(n) => (m, data, n, None),
-        None => {
-            let c = choose_noise(&m, &data, &MapSettings::default(), seed ^ 0x0A17_0015)
-                .map_err(err)?;
-            (m, data, c.chosen, Some(c.sentence()))
-        }
-    })
+    let asked = criticize::parse_noise(noise).ok_or_else(|| {
+        value_error(format!(
+            "noise `{noise}`: expected `white`, `ar1` or `auto`"
+        ))
+    })?;
+    let (data, warnings) = aligned_with_warnings(t, a, t0)?;
+    criticize::setup(m, data, asked, seed, source, warnings).map_err(err)
 }
 
-/// `hbis diagnose` on arrays: the fit, its residual diagnosis and every
-/// catalog candidate ranked, as JSON text.
+/// `hbis diagnose` on arrays: `diagnosis.json`'s text, the same runner's
+/// report.
 #[pyfunction]
-#[pyo3(signature = (t, a, model, noise="white", seed=1, t0=None, effects=Vec::new(), candidates=None, exclude=Vec::new()))]
+#[pyo3(signature = (t, a, model, noise="white", seed=1, t0=None, effects=Vec::new(), candidates=None, exclude=Vec::new(), source="array"))]
 #[allow(clippy::too_many_arguments)]
 fn diagnose(
     py: Python<'_>,
@@ -546,44 +549,21 @@ fn diagnose(
     effects: Vec<String>,
     candidates: Option<Vec<String>>,
     exclude: Vec<String>,
+    source: &str,
 ) -> PyResult<String> {
     let (t, a) = (t.as_slice()?.to_vec(), a.as_slice()?.to_vec());
     let registry = criticism_registry(&effects, candidates, &exclude)?;
-    let text = py.detach(|| -> PyResult<String> {
-        let (m, data, noise, choice) =
-            criticism_inputs(&registry, &t, &a, model, noise, seed, t0)?;
-        let (fit, diagnosis, ranked) = diagnose_model(
-            &registry,
-            &m,
-            &data,
-            noise,
-            &MapSettings::default(),
-            seed,
-        )
-        .map_err(err)?;
-        let report = serde_json::json!({
-            "model": m.name(),
-            "seed": seed,
-            "noise": noise.as_str(),
-            "noise_choice": choice,
-            "e2": fit.e2,
-            "bic": fit.bic,
-            "log_evidence": fit.log_evidence,
-            "map": fit.names.iter().cloned().zip(fit.theta.iter().copied()).collect::<BTreeMap<_, _>>(),
-            "candidates": ranked,
-            "caution": hbis::criticism::caution(&ranked),
-            "conclusion": hbis::criticism::conclusion(&diagnosis, &ranked),
-            "residual": diagnosis,
-        });
-        serde_json::to_string(&report).map_err(err)
-    })?;
-    Ok(text)
+    py.detach(|| -> PyResult<String> {
+        let s = criticism_setup(&registry, &t, &a, model, noise, seed, t0, source)?;
+        let d = criticize::diagnose(&registry, &s, &MapSettings::default()).map_err(err)?;
+        serde_json::to_string(&d.report).map_err(err)
+    })
 }
 
-/// `hbis ladder` on arrays: the steps (each a fit, its diagnosis and the
-/// ranked candidates) as JSON text; `progress(step_index, model)` after each.
+/// `hbis ladder` on arrays: `ladder.json`'s text, the same runner's report;
+/// `progress(step_index, model)` after each step.
 #[pyfunction]
-#[pyo3(signature = (t, a, model, noise="white", seed=1, t0=None, max_steps=6, progress=None, effects=Vec::new(), candidates=None, exclude=Vec::new()))]
+#[pyo3(signature = (t, a, model, noise="white", seed=1, t0=None, max_steps=6, progress=None, effects=Vec::new(), candidates=None, exclude=Vec::new(), source="array"))]
 #[allow(clippy::too_many_arguments)]
 fn ladder(
     py: Python<'_>,
@@ -598,39 +578,30 @@ fn ladder(
     effects: Vec<String>,
     candidates: Option<Vec<String>>,
     exclude: Vec<String>,
+    source: &str,
 ) -> PyResult<String> {
     let (t, a) = (t.as_slice()?.to_vec(), a.as_slice()?.to_vec());
     let registry = criticism_registry(&effects, candidates, &exclude)?;
     py.detach(|| -> PyResult<String> {
-        let (m, data, noise, choice) = criticism_inputs(&registry, &t, &a, model, noise, seed, t0)?;
+        let s = criticism_setup(&registry, &t, &a, model, noise, seed, t0, source)?;
         let mut k = 0usize;
-        let mut on_step = |s: &hbis::criticism::Step| {
+        let mut on_step = |step: &hbis::criticism::Step| {
             if let Some(cb) = &progress {
                 Python::attach(|py| {
-                    let _ = cb.call1(py, (k, s.model.clone()));
+                    let _ = cb.call1(py, (k, step.model.clone()));
                 });
             }
             k += 1;
         };
-        let steps = ladder_observed(
+        let l = criticize::ladder(
             &registry,
-            m.clone(),
-            &data,
-            noise,
+            &s,
             &MapSettings::default(),
-            seed,
             max_steps,
             &mut on_step,
         )
         .map_err(err)?;
-        let report = serde_json::json!({
-            "start": m.name(),
-            "seed": seed,
-            "noise": noise.as_str(),
-            "noise_choice": choice,
-            "steps": steps,
-        });
-        serde_json::to_string(&report).map_err(err)
+        serde_json::to_string(&l.report).map_err(err)
     })
 }
 

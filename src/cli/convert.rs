@@ -2,19 +2,24 @@
 
 use std::path::PathBuf;
 
-use anyhow::Result;
+use anyhow::{bail, Result};
 use hbis::model::physical::Physical;
+use hbis::model::ForwardModel;
 
 use super::inputs;
 
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// JSON file of parameters.
+    /// JSON file of parameters (every parameter of --model, by name).
     #[arg(long)]
     params: PathBuf,
-    /// Model spec the parameters belong to.
+    /// Model the parameters belong to: any model of the registry (catalog
+    /// components and --effects included); eq. 8.1 reads its spring,
+    /// friction and damper.
     #[arg(long, default_value = "trilinear+lcfm+viscous")]
     model: String,
+    #[command(flatten)]
+    effects: inputs::EffectArgs,
     /// Released force F0^n (kN).
     #[arg(long, allow_negative_numbers = true)]
     released_force: f64,
@@ -27,9 +32,18 @@ pub struct Args {
 }
 
 pub fn run(a: Args) -> Result<()> {
-    let spec = inputs::spec(&a.model)?;
-    let params = inputs::params(&a.params, &spec)?;
-    let q = Physical::from_params(&spec, &params, a.released_force, a.static_friction)?;
+    let registry = a.effects.registry()?;
+    let model = inputs::model(&registry, &a.model)?;
+    if let Some(law) = model.forces().iter().find(|c| c.spring_law()) {
+        bail!(
+            "--model `{}`: eq. 8.1 converts the bilinear and trilinear springs; `{}` replaces the spring law",
+            model.name(),
+            law.name()
+        );
+    }
+    let theta = inputs::model_params(&model, &a.params)?;
+    let p = model.core_params(&theta)?;
+    let q = Physical::from_params(&model.spec(), &p, a.released_force, a.static_friction)?;
     if a.json {
         super::print_stdout(&(serde_json::to_string_pretty(&q)? + "\n"))?;
     } else {

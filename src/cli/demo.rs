@@ -94,29 +94,22 @@ fn criticize(out: &mut impl Write, dir: &mut OutDir) -> Result<()> {
         path.display()
     )?;
     let data = syn.record.aligned(None)?;
-    let start = hbis::model::Model::parse("bilinear+coulomb")?;
-    let steps = super::criticize::ladder_steps(
-        &Registry::builtin(),
-        start,
-        &data,
-        Noise::White,
-        SEED,
-        super::criticize::MAX_LADDER_STEPS,
-    )?;
-    super::criticize::print_ladder(out, &steps)?;
-    let ladder_dir = dir.path("ladder");
-    dir.set_prefix("ladder");
-    super::criticize::write_ladder(
-        &Registry::builtin(),
-        dir,
-        "bilinear+coulomb",
+    let registry = Registry::builtin();
+    let warnings = hbis::data::record_warnings(&syn.record, &data);
+    let s = hbis::study::criticize::setup(
+        registry.parse("bilinear+coulomb")?,
+        data,
+        Some(Noise::White),
         SEED,
         &path.display().to_string(),
-        &steps,
-        &data,
-        None,
-        hbis::data::record_warnings(&syn.record, &data),
+        warnings,
     )?;
+    let ladder =
+        super::criticize::ladder_steps(&registry, &s, hbis::study::criticize::MAX_LADDER_STEPS)?;
+    super::criticize::print_ladder(out, &ladder.steps)?;
+    let ladder_dir = dir.path("ladder");
+    dir.set_prefix("ladder");
+    hbis::study::criticize::write_ladder(&registry, &ladder, &s, dir)?;
     dir.set_prefix("");
     writeln!(
         out,
@@ -206,17 +199,14 @@ fn identify(out: &mut impl Write, dir: &mut OutDir) -> Result<()> {
         )?;
     }
     dir.set_prefix("fit");
-    super::fit::write_outputs(
-        &fit,
-        dir,
-        &record_path.display().to_string(),
-        &spec.to_string(),
-        SEED,
-        Noise::White,
+    let run = hbis::study::outputs::FitRun {
+        source: record_path.display().to_string(),
+        seed: SEED,
+        noise: Noise::White,
         record_warnings,
-        &super::fit::ChainArgs::default(),
-        Some(&truth),
-    )?;
+        chains: Default::default(),
+    };
+    hbis::study::outputs::write_fit(&fit, dir, &run, Some(&truth))?;
     super::fit::drop_checkpoint(&fit_dir.join("checkpoint"));
     dir.set_prefix("");
     writeln!(

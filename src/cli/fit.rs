@@ -4,14 +4,14 @@ use std::io::{IsTerminal, Write};
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
-use hbis::data::{Aligned, Warning};
+use hbis::data::Aligned;
 use hbis::inference::{
     CheckpointStatus, MapEstimate, MapSettings, Noise, Posterior, Priors, Progress, SampleSettings,
 };
 use hbis::model::{ForwardModel, Model};
-use hbis::report::json::{DataInfo, FitReport};
 use hbis::report::outdir::{InputEntry, OutDir};
-use hbis::study::{fit_record, predictive_band, Fit, FitOptions};
+use hbis::study::outputs::{release_line, write_fit, ChainOptions, FitRun};
+use hbis::study::{fit_record, Fit, FitOptions};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 
 use super::inputs;
@@ -115,6 +115,15 @@ pub struct ChainArgs {
 }
 
 impl ChainArgs {
+    /// As the runners take them.
+    pub fn options(&self) -> ChainOptions {
+        ChainOptions {
+            thin: self.thin,
+            no_chains: self.no_chains,
+            keep_checkpoint: self.keep_checkpoint,
+        }
+    }
+
     /// Rejects `--thin 0`.
     pub fn check(&self) -> Result<()> {
         if self.thin == Some(0) {
@@ -235,17 +244,14 @@ pub fn run(a: Args) -> Result<()> {
         print_posterior(&mut err, &fit)?;
     }
     let n_record = record_warnings.len();
-    let report = write_outputs(
-        &fit,
-        &mut dir,
-        &a.data.display().to_string(),
-        &model.name(),
-        a.seed,
+    let run = FitRun {
+        source: a.data.display().to_string(),
+        seed: a.seed,
         noise,
         record_warnings,
-        &a.chains,
-        None,
-    )?;
+        chains: a.chains.options(),
+    };
+    let report = write_fit(&fit, &mut dir, &run, None)?;
     inputs::print_warnings(&report.warnings[n_record..]);
     if !a.chains.keep_checkpoint {
         drop_checkpoint(&a.out.join("checkpoint"));
@@ -258,20 +264,10 @@ pub fn run(a: Args) -> Result<()> {
     Ok(())
 }
 
-/// Removes a finished run's checkpoint (the outputs are written, so it is
-/// only weight: 16 MB for the demo). `state.json` goes first, so that an
-/// interrupted removal leaves no checkpoint that could be resumed. A
-/// failure is reported, not fatal: the fit itself is complete.
+/// Removes a finished run's checkpoint; a failure is a warning, since the
+/// fit itself is complete.
 pub fn drop_checkpoint(dir: &Path) {
-    let state = dir.join("state.json");
-    let result = match std::fs::remove_file(&state) {
-        Err(e) if e.kind() != std::io::ErrorKind::NotFound => Err(e),
-        _ => match std::fs::remove_dir_all(dir) {
-            Err(e) if e.kind() != std::io::ErrorKind::NotFound => Err(e),
-            _ => Ok(()),
-        },
-    };
-    if let Err(e) = result {
+    if let Err(e) = hbis::study::outputs::drop_checkpoint(dir) {
         eprintln!(
             "warning: could not remove the checkpoint {}: {e} (the fit is complete; remove it by hand)",
             dir.display()
@@ -301,35 +297,6 @@ fn check_sampler_size(dim: usize, w: usize, ensembles: usize, max_steps: usize) 
         );
     }
     Ok(())
-}
-
-/// Where the release is and how it was found, in one line.
-pub fn release_line(data: &Aligned) -> String {
-    let first = data.t_first;
-    let when = if data.lag_unknown() {
-        format!(
-            "release detected just before the sample at t = {first} s (placed between samples by the fit)"
-        )
-    } else if data.lag > 0.0 {
-        format!(
-            "release at t0 = {} s ({}), first sample {:.2} ms after it",
-            data.t0,
-            data.source.as_str(),
-            1e3 * data.lag
-        )
-    } else {
-        format!("release at t0 = {} s ({})", data.t0, data.source.as_str())
-    };
-    let mirrored = if data.polarity < 0.0 {
-        "; the record starts with a > 0 (released towards negative displacement, or the sensor points the other way): fitted mirrored, u0 is the size of the release displacement"
-    } else {
-        ""
-    };
-    format!(
-        "{when}, {} samples at dt = {} s{mirrored}",
-        data.a.len(),
-        data.dt
-    )
 }
 
 /// Runs the study with a progress bar on stderr when it is a terminal.
@@ -365,224 +332,6 @@ pub fn run_fit(
         b.finish_and_clear();
     }
     Ok(fit)
-}
-
-/// Writes fit.json, fit.csv, the chains and the figures into `out`, each
-/// atomically.
-#[allow(clippy::too_many_arguments)]
-pub fn write_outputs(
-    fit: &Fit,
-    out: &mut OutDir,
-    source: &str,
-    spec: &str,
-    seed: u64,
-    noise: Noise,
-    record_warnings: Vec<Warning>,
-    chains: &ChainArgs,
-    #[cfg_attr(not(feature = "figures"), allow(unused_variables))] truth: Option<&[f64]>,
-) -> Result<FitReport> {
-    let data = fit.posterior.data();
-    let mut chain_files = Vec::new();
-    let mut thin = None;
-    if let Some(sample) = fit.sample.as_ref().filter(|_| !chains.no_chains) {
-        let every = chains
-            .thin
-            .unwrap_or_else(|| hbis::report::cmdstan::auto_thin(sample));
-        // Eq. 8.1 per draw, when the fit was given the forces.
-        let forces = fit.forces;
-        let of = |x: &[f64]| match forces {
-            Some((f, s)) => hbis::study::physical_of(&fit.posterior, x, f, s)
-                .map_or_else(|_| vec![f64::NAN; 6], |q| q.to_vec()),
-            None => Vec::new(),
-        };
-        let derived = hbis::report::cmdstan::Derived {
-            names: &hbis::study::PHYSICAL_NAMES,
-            of: &of,
-        };
-        let derived = forces.map(|_| &derived);
-        for e in 0..sample.chains.len() {
-            let name = format!("chains/chain-{}.csv", e + 1);
-            out.write_with(&name, |tmp| {
-                let f = std::fs::File::create(tmp)?;
-                let mut w = std::io::BufWriter::new(f);
-                hbis::report::cmdstan::write_chain(&mut w, sample, e, spec, seed, every, derived)?;
-                w.into_inner().map_err(|e| e.into_error())?.sync_all()
-            })?;
-            chain_files.push(name);
-        }
-        thin = Some(every);
-    }
-    let mut report = FitReport::from_fit(
-        spec,
-        seed,
-        noise,
-        DataInfo::new(source, data),
-        fit,
-        chain_files,
-        thin,
-    );
-    report.warnings.splice(0..0, record_warnings);
-    out.write(
-        "fit.json",
-        (serde_json::to_string_pretty(&report)? + "\n").as_bytes(),
-    )?;
-    // In the record's own sign (the fit sees it mirrored if it starts positive).
-    let model = data.in_record_sign(&fit.posterior.model_accel(&fit.map.theta)?);
-    let measured = data.in_record_sign(&data.a);
-    let band = predictive_band(fit, 200, seed)?.map(|(lo, hi)| {
-        let (lo, hi) = (data.in_record_sign(&lo), data.in_record_sign(&hi));
-        if data.polarity < 0.0 {
-            (hi, lo)
-        } else {
-            (lo, hi)
-        }
-    });
-    let t: Vec<f64> = (0..model.len()).map(|i| data.time(i)).collect();
-    let mut csv = String::from("t,a_measured,a_model,residual");
-    if band.is_some() {
-        csv.push_str(",a_q05,a_q95");
-    }
-    csv.push('\n');
-    for i in 0..model.len() {
-        csv.push_str(&format!(
-            "{},{},{},{}",
-            t[i],
-            measured[i],
-            model[i],
-            measured[i] - model[i]
-        ));
-        if let Some((lo, hi)) = &band {
-            csv.push_str(&format!(",{},{}", lo[i], hi[i]));
-        }
-        csv.push('\n');
-    }
-    out.write("fit.csv", csv.as_bytes())?;
-    // Each figure as PNG, and as SVG (fewer points) for report.html.
-    #[allow(unused_mut)]
-    let mut svgs: Vec<(String, String)> = Vec::new();
-    #[cfg(feature = "figures")]
-    {
-        use hbis::report::figures;
-        // The phases of the MAP motion, shaded behind the record.
-        let phases = hbis::study::segments(
-            fit.posterior.model(),
-            fit.posterior.model_part(&fit.map.theta),
-            data,
-        )
-        .ok()
-        .map(|s| s.phase);
-        let fit_fig = |tmp: &Path| {
-            figures::fit_figure(
-                tmp,
-                &t,
-                &measured,
-                &model,
-                &figures::Overlays {
-                    band: band.as_ref().map(|(l, h)| (l.as_slice(), h.as_slice())),
-                    scale: Some(figures::ResidualScale {
-                        half: 0.0,
-                        sigma: report.sigma_hat,
-                        label: "±σ: residual RMS at the MAP",
-                    }),
-                    phases: phases.as_deref(),
-                },
-                &format!("{spec}: MAP fit, e2 = {:.5}", fit.map.eval.e2),
-            )
-        };
-        out.write_with("fit.png", fit_fig)?;
-        svgs.push((
-            figures::svg_text(fit_fig)?,
-            "Measured and model acceleration with the 90 % predictive band; the residual below."
-                .into(),
-        ));
-        if let Some(sample) = &fit.sample {
-            let points = sample.points();
-            // Each parameter with its unit, as its component declares it.
-            let specs = fit.posterior.model().params();
-            let labels: Vec<String> = sample
-                .names
-                .iter()
-                .map(|n| match specs.iter().find(|p| &p.name == n) {
-                    Some(p) => format!("{n} ({})", p.unit),
-                    None => format!("{n} (-)"),
-                })
-                .collect();
-            let corner = |tmp: &Path, n: usize| {
-                let stride = (points.len() / n).max(1);
-                let thin: Vec<Vec<f64>> = points.iter().step_by(stride).cloned().collect();
-                figures::corner_figure(
-                    tmp,
-                    &labels,
-                    &thin,
-                    Some(&fit.map.theta),
-                    truth,
-                    &format!(
-                        "{spec}: posterior (red: MAP{}; titles: median [90 % interval])",
-                        if truth.is_some() {
-                            ", black: truth"
-                        } else {
-                            ""
-                        }
-                    ),
-                )
-            };
-            out.write_with("corner.png", |tmp| corner(tmp, 3000))?;
-            svgs.push((
-                figures::svg_text(|tmp| corner(tmp, 400))?,
-                "Posterior: marginal histograms and pairwise draws (400 of them here; corner.png has 3,000); red: the MAP.".into(),
-            ));
-            // Three walkers of every ensemble, one colour per ensemble.
-            let picks: Vec<(usize, usize)> = sample
-                .chains
-                .iter()
-                .enumerate()
-                .flat_map(|(e, c)| {
-                    let step = (c.walkers() / 3).max(1);
-                    (0..c.walkers()).step_by(step).take(3).map(move |w| (e, w))
-                })
-                .collect();
-            let ensemble: Vec<usize> = picks.iter().map(|p| p.0).collect();
-            let steps = sample.steps();
-            let traces = |every: usize| -> Vec<Vec<Vec<f64>>> {
-                (0..sample.names.len())
-                    .map(|k| {
-                        picks
-                            .iter()
-                            .map(|&(e, w)| {
-                                let c = &sample.chains[e];
-                                (0..steps).step_by(every).map(|s| c.get(s, w)[k]).collect()
-                            })
-                            .collect()
-                    })
-                    .collect()
-            };
-            let trace = |tmp: &Path, every: usize| {
-                figures::trace_figure(
-                    tmp,
-                    &sample.names,
-                    &traces(every),
-                    &ensemble,
-                    sample.burn / every,
-                    &format!(
-                        "{spec}: traces, 3 walkers of each of the {} ensembles (one colour each; black line: end of burn-in)",
-                        sample.chains.len()
-                    ),
-                )
-            };
-            out.write_with("trace.png", |tmp| trace(tmp, 1))?;
-            let every = (steps / 400).max(1);
-            svgs.push((
-                figures::svg_text(|tmp| trace(tmp, every))?,
-                format!("Traces of three walkers of every ensemble, one colour per ensemble (every {every}-th step here); the black line ends the burn-in."),
-            ));
-        }
-    }
-    let names = fit.names().to_vec();
-    out.write(
-        "report.html",
-        hbis::report::html::fit_page(&report, &names, &svgs).as_bytes(),
-    )?;
-    Ok(report)
 }
 
 /// The MAP as a table, with the search's numbers.

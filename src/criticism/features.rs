@@ -394,7 +394,7 @@ pub fn verdict(d: &Diagnostics, features: &[Feature]) -> String {
         .filter(|f| f.significant && f.kind != FeatureKind::Colour)
         .collect();
     let mut lines = Vec::new();
-    if d.e2.is_nan() || d.e2 > crate::report::sanity::EXPLAINS_NOTHING_E2 {
+    if d.e2.is_nan() || d.e2 > crate::criticism::sanity::EXPLAINS_NOTHING_E2 {
         lines.push(format!(
             "The model explains only {:.1} % of the record's energy (e2 = {:.4}): the residual is most of the record, so whether it looks white (Ljung-Box p = {:.2}) says nothing about missing effects; the record may be noise only, in other units, or the model far from it.",
             100.0 * (1.0 - d.e2).max(0.0),

@@ -9,6 +9,7 @@ pub mod calibration;
 pub mod features;
 pub mod ranking;
 pub mod residuals;
+pub mod sanity;
 
 pub use ranking::{
     adopt, caution, choose_noise, conclusion, diagnose_model, diagnosis_of, fit_model, ladder,

@@ -246,7 +246,7 @@ pub fn conclusion(diagnosis: &Diagnostics, ranked: &[RankedCandidate]) -> String
         .first()
         .map(|c| format!(" The best candidate, `{}`, is {}.", c.effect, c.reason))
         .unwrap_or_default();
-    if diagnosis.e2.is_nan() || diagnosis.e2 > crate::report::sanity::EXPLAINS_NOTHING_E2 {
+    if diagnosis.e2.is_nan() || diagnosis.e2 > crate::criticism::sanity::EXPLAINS_NOTHING_E2 {
         format!(
             "No conclusion: the model explains only {:.1} % of the record (e2 = {:.4}), so no effect can be judged on its residual.{best}",
             100.0 * (1.0 - diagnosis.e2).max(0.0),

@@ -130,6 +130,20 @@ pub fn correlation(cov: &[Vec<f64>]) -> Vec<Vec<f64>> {
         .collect()
 }
 
+/// Quantiles of a response over time: the posterior predictive band of
+/// [`crate::study::predict`].
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Band {
+    /// Times (s).
+    pub t: Vec<f64>,
+    /// 5 % quantile of `u` (m).
+    pub q05: Vec<f64>,
+    /// Median.
+    pub q50: Vec<f64>,
+    /// 95 % quantile.
+    pub q95: Vec<f64>,
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -14,75 +14,9 @@
 //! [`Model`]: super::Model
 
 use super::error::ParamError;
+pub use super::layout::ParamSpec;
 use super::simulate::System;
 use super::spec::{DamperKind, FrictionKind, SpringKind};
-
-/// One parameter of a component: what it is, in which unit, where its
-/// prior lives and which value switches the component off.
-#[derive(Debug, Clone, PartialEq)]
-pub struct ParamSpec {
-    /// Name in `theta`, outputs and prior files (e.g. `r_mu`).
-    pub name: String,
-    /// Mathematical symbol (e.g. `mu_slow/mu_fast`).
-    pub symbol: String,
-    /// SI unit (`-` for a ratio).
-    pub unit: String,
-    /// Default prior: uniform on these bounds.
-    pub bounds: (f64, f64),
-    /// The value at which the component has no effect (its warm start when
-    /// the component is added to a fitted model).
-    pub neutral: f64,
-    /// One line: the physical meaning.
-    pub meaning: String,
-    /// A physically meaningful change of the parameter, in its unit: the
-    /// yardstick reports use to judge a posterior sd.
-    pub scale: f64,
-    /// How a record shows the parameter (which feature of the acceleration
-    /// it changes): the identifiability report's physical explanation.
-    /// Empty when not declared.
-    pub shows: String,
-}
-
-impl ParamSpec {
-    /// A parameter with its name, unit, bounds and neutral value; the
-    /// symbol defaults to the name and the scale to a tenth of the bounds.
-    pub fn new(name: &str, unit: &str, bounds: (f64, f64), neutral: f64) -> Self {
-        Self {
-            name: name.to_string(),
-            symbol: name.to_string(),
-            unit: unit.to_string(),
-            bounds,
-            neutral,
-            meaning: String::new(),
-            scale: 0.1 * (bounds.1 - bounds.0),
-            shows: String::new(),
-        }
-    }
-
-    /// With a symbol.
-    pub fn symbol(mut self, s: &str) -> Self {
-        self.symbol = s.to_string();
-        self
-    }
-
-    /// With a meaning.
-    pub fn meaning(mut self, s: &str) -> Self {
-        self.meaning = s.to_string();
-        self
-    }
-
-    /// With a physical scale.
-    pub fn scale(mut self, s: f64) -> Self {
-        self.scale = s;
-        self
-    }
-
-    /// With how a record shows it.
-    pub fn shows(mut self, s: &str) -> Self {
-        self.shows = s.to_string();
-        self
-    }
-}
 
 /// The slot of the paper's model a core component fills.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]

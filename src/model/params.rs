@@ -5,8 +5,8 @@ use std::fmt;
 
 use serde::{Deserialize, Serialize};
 
-use super::component::ParamSpec;
 use super::error::ParamError;
+use super::layout::ParamSpec;
 
 /// Name of one identification parameter, spelled as in the paper.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]

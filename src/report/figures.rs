@@ -1015,7 +1015,7 @@ fn legend<'a, DB: DrawingBackend + 'a, CT: CoordTranslate>(
 /// band and the median over time (top), the ground acceleration (bottom).
 pub fn response_band_figure(
     path: &Path,
-    band: &crate::predict::Band,
+    band: &crate::inference::summary::Band,
     motion: (f64, &[f64]),
     capacity: Option<f64>,
 ) -> Result<(), FigureError> {
@@ -1025,7 +1025,7 @@ pub fn response_band_figure(
 
 fn draw_band<DB: DrawingBackend>(
     root: DrawingArea<DB, Shift>,
-    band: &crate::predict::Band,
+    band: &crate::inference::summary::Band,
     (dt, ag): (f64, &[f64]),
     capacity: Option<f64>,
 ) -> Result<(), String> {

@@ -10,7 +10,6 @@ use crate::inference::design::DesignTable;
 use crate::inference::identifiability::ParamIdentifiability;
 use crate::inference::{MapEstimate, Noise, ParamSummary, PolishReport};
 use crate::model::physical::Physical;
-use crate::study::Fit;
 
 /// Where the record came from and how it was aligned.
 #[derive(Debug, Clone, Serialize)]
@@ -101,9 +100,9 @@ pub struct FitReport {
     /// The polish.
     pub polish: Option<PolishReport>,
     /// The second MAP search, present when the first left a structured
-    /// residual ([`crate::study::SecondSearch`]).
+    /// residual ([`crate::inference::map::SecondSearch`]).
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub map_second_search: Option<crate::study::SecondSearch>,
+    pub map_second_search: Option<crate::inference::map::SecondSearch>,
     /// Wall time of the MAP search (s); with `sampling.wall_time_s` the only
     /// keys that vary between runs with the same seed.
     pub wall_time_s: f64,
@@ -263,94 +262,5 @@ impl FitReport {
             physical: None,
             warnings: Vec::new(),
         }
-    }
-
-    /// Builds the report of a whole fit; `chains` are the chain files
-    /// written, every `thin`-th step.
-    pub fn from_fit(
-        model: &str,
-        seed: u64,
-        noise: Noise,
-        data: DataInfo,
-        fit: &Fit,
-        chains: Vec<String>,
-        thin: Option<usize>,
-    ) -> Self {
-        let mut r = Self::from_map(model, seed, noise, data, &fit.map);
-        r.map_second_search = fit.second_search;
-        r.max_log_likelihood = Some(fit.comparison.log_likelihood);
-        r.bic = Some(fit.comparison.bic);
-        r.log_evidence = fit.log_evidence;
-        let names = fit.names().to_vec();
-        let by_name = |v: &[f64]| -> BTreeMap<String, f64> {
-            names.iter().cloned().zip(v.iter().copied()).collect()
-        };
-        if let Some(s) = &fit.summaries {
-            r.posterior = Some(names.iter().cloned().zip(s.iter().cloned()).collect());
-        }
-        if let Some(id) = &fit.identifiability {
-            r.ranking = Some(id.ranking.clone());
-            r.weakest = Some(id.weakest.clone());
-            r.explanation = Some(id.explanation.clone());
-            r.identifiability = Some(IdentifiabilityReport {
-                params: id.params.iter().cloned().collect(),
-                design: fit.design.clone(),
-            });
-        }
-        if let Some(c) = &fit.covariance {
-            r.correlation = Some(Correlation {
-                names: names.clone(),
-                matrix: crate::inference::summary::correlation(c),
-            });
-        }
-        if let Some(s) = &fit.sample {
-            let tau_max: Vec<f64> = (0..names.len())
-                .map(|k| s.tau.iter().map(|t| t[k]).fold(0.0, f64::max))
-                .collect();
-            r.sampling = Some(SamplingInfo {
-                ensembles: s.chains.len(),
-                walkers: s.chains.first().map_or(0, |c| c.walkers()),
-                steps: s.steps(),
-                burn_in: s.burn,
-                converged: s.converged,
-                not_converged: (!s.converged).then(|| s.not_converged.clone()),
-                moves: s.moves.clone(),
-                tau: by_name(&tau_max),
-                ess: by_name(&s.ess),
-                rhat: by_name(&s.rhat),
-                acceptance: s.acceptance.clone(),
-                evaluations: s.evaluations,
-                chains,
-                thin,
-                chain_layout: "walker-major",
-                wall_time_s: s.wall_time,
-                checkpoint: s.checkpoint.clone(),
-            });
-        }
-        r.physical_map = fit.physical_map;
-        r.physical = fit.physical.as_ref().map(|v| v.iter().cloned().collect());
-        r.warnings = crate::report::sanity::fit_warnings(
-            &names,
-            &fit.map.theta,
-            fit.map.eval.e2,
-            fit.posterior.priors(),
-        );
-        r.warnings.extend(crate::report::sanity::structured_at(
-            &fit.posterior,
-            &fit.map.theta,
-        ));
-        if let Some(s) = &fit.sample {
-            let worst = s.rhat.iter().copied().fold(f64::NAN, f64::max);
-            if !s.converged {
-                r.warnings.push(Warning {
-                    code: "not-converged".into(),
-                    message: format!(
-                        "the posterior run is not converged ({}; largest R-hat {worst:.3}): intervals may be wrong; raise --max-steps",
-                        s.not_converged
-                    ),
-                });
-            }
-        }
-        r
     }
 }

@@ -195,6 +195,41 @@ fn convert_prints_table_8_2_quantities() {
     assert!(stderr(&o).contains("released force"));
 }
 
+/// `convert` takes any registry model: eq. 8.1 reads the core, so a model
+/// with a Maxwell element beside it converts to the core's numbers; a model
+/// whose spring law is replaced is refused, naming the component.
+#[test]
+fn convert_takes_any_registry_model() {
+    let d = tempfile::tempdir().unwrap();
+    write(d.path(), "p.json", TEST5);
+    let with_maxwell = TEST5.replace('}', r#", "r_m": 0.2, "tau_m": 0.5}"#);
+    write(d.path(), "pm.json", &with_maxwell);
+    let forces = [
+        "--released-force",
+        "1180",
+        "--static-friction",
+        "100",
+        "--json",
+    ];
+    let run = |model: &str, params: &str| {
+        let mut args = vec!["convert", "--model", model, "--params", params];
+        args.extend(forces);
+        hbis(d.path(), &args)
+    };
+    let core = run("trilinear+lcfm+viscous", "p.json");
+    let more = run("trilinear+lcfm+viscous+maxwell", "pm.json");
+    assert!(core.status.success(), "{}", stderr(&core));
+    assert!(more.status.success(), "{}", stderr(&more));
+    assert_eq!(core.stdout, more.stdout);
+    // The Maxwell parameters are the model's: leaving them out is named.
+    let o = run("trilinear+lcfm+viscous+maxwell", "p.json");
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("r_m"), "{}", stderr(&o));
+    let o = run("bouc-wen+lcfm+viscous", "p.json");
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("bouc-wen"), "{}", stderr(&o));
+}
+
 #[test]
 fn demo_runs_on_the_embedded_default() {
     let d = tempfile::tempdir().unwrap();

@@ -141,23 +141,7 @@ impl Fit {
     }
 }
 
-/// A second MAP search from new starts, run when the first search's
-/// residual is structured ([`crate::report::sanity::structured_residual`]):
-/// such a MAP is often a local basin. On the 62 records of
-/// `examples/map_robustness.rs`, 8 were searched twice; the second search
-/// was higher on 7 and reached the noise floor on 3. The better of the two
-/// is kept.
-#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
-pub struct SecondSearch {
-    /// Log-posterior of the first search's MAP.
-    pub first_log_posterior: f64,
-    /// Log-posterior of the second search's MAP.
-    pub second_log_posterior: f64,
-    /// Evaluations of the second search.
-    pub evaluations: u64,
-    /// Whether the second search's MAP is kept (it is higher).
-    pub kept_second: bool,
-}
+pub use crate::inference::map::SecondSearch;
 
 /// Fits `data` with `model`: MAP, then (if asked) the posterior and its
 /// reports. `priors = None` uses the defaults the model's components
@@ -182,7 +166,7 @@ pub fn fit_record(
         None,
         &mut rng,
     )?;
-    let structured = crate::report::sanity::structured_at(&fit.posterior, &fit.map.theta);
+    let structured = crate::criticism::sanity::structured_at(&fit.posterior, &fit.map.theta);
     let second_search = if structured.is_some() {
         let again = fit_map(
             model.clone(),

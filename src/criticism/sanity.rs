@@ -16,10 +16,10 @@ pub const AT_BOUND: f64 = 0.005;
 /// `explains-nothing` when `e2` is above [`EXPLAINS_NOTHING_E2`].
 ///
 /// ```
-/// let w = hbis::report::sanity::explains_nothing(0.97).unwrap();
+/// let w = hbis::criticism::sanity::explains_nothing(0.97).unwrap();
 /// assert_eq!(w.code, "explains-nothing");
 /// assert!(w.message.contains("3.0 %"));
-/// assert!(hbis::report::sanity::explains_nothing(0.01).is_none());
+/// assert!(hbis::criticism::sanity::explains_nothing(0.01).is_none());
 /// ```
 pub fn explains_nothing(e2: f64) -> Option<Warning> {
     (e2.is_nan() || e2 > EXPLAINS_NOTHING_E2).then(|| Warning {
@@ -80,7 +80,7 @@ pub const STRUCTURED_P: f64 = 1e-3;
 /// all leave one, and the intervals of such a fit are too narrow.
 ///
 /// ```
-/// use hbis::report::sanity::structured_residual;
+/// use hbis::criticism::sanity::structured_residual;
 /// // A residual that is a slow sine, not noise.
 /// let r: Vec<f64> = (0..2000).map(|i| (i as f64 * 0.05).sin()).collect();
 /// let w = structured_residual(&r, None).unwrap();

@@ -204,18 +204,7 @@ pub struct DrawOutcome {
     pub peak_base_shear_kn: Option<f64>,
 }
 
-/// Quantiles of the displacement over time.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct Band {
-    /// Times (s).
-    pub t: Vec<f64>,
-    /// 5 % quantile of `u` (m).
-    pub q05: Vec<f64>,
-    /// Median.
-    pub q50: Vec<f64>,
-    /// 95 % quantile.
-    pub q95: Vec<f64>,
-}
+pub use crate::inference::summary::Band;
 
 /// A posterior predictive run.
 #[derive(Debug, Clone, PartialEq)]
