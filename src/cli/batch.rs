@@ -2,15 +2,12 @@
 //! TOML manifest), each item an `hbis fit` into its own folder, resumable,
 //! split into shards for a job array and collected into one summary.
 
-use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
 use clap::Parser;
-use hbis::batch::{summary_header, summary_rows, Item, Shard, Study};
-use hbis::model::ForwardModel;
-use hbis::report::outdir::{write_file_atomic, InputEntry, Manifest, MANIFEST};
-use serde::{Deserialize, Serialize};
+use hbis::batch::{Shard, Study};
+use hbis::study::batch_run::{self, describe, Event, Plan};
 
 use super::fit;
 
@@ -43,22 +40,6 @@ struct FitCommand {
     args: fit::Args,
 }
 
-/// What an item was run with, beside its results: a finished item is
-/// skipped only while these still hold.
-#[derive(Debug, Serialize, Deserialize, PartialEq)]
-struct ItemStamp {
-    /// The `hbis fit` arguments (the output folder left out).
-    args: Vec<String>,
-    /// SHA-256 of the record file.
-    record_sha256: String,
-    /// SHA-256 of each effect file, in the manifest's order: an edited
-    /// effect file reruns the item.
-    #[serde(default)]
-    effects_sha256: Vec<String>,
-}
-
-const STAMP: &str = "batch-item.json";
-
 pub fn run(a: Args) -> Result<()> {
     let shard = match &a.shard {
         Some(s) => s.parse::<Shard>()?,
@@ -72,137 +53,71 @@ pub fn run(a: Args) -> Result<()> {
     let base = a.manifest.parent().unwrap_or(Path::new(""));
     let study =
         Study::parse(&text, base).with_context(|| format!("in {}", a.manifest.display()))?;
-    let items = study.items();
-    // Every item is checked before any is run: a typo costs nothing.
-    let mut plans = Vec::with_capacity(items.len());
-    for item in &items {
-        plans.push(plan(&study, item, &a.out).with_context(|| describe(&study, item))?);
+    let plans = batch_run::plan(&study, &super::base_registry(), &a.out)?;
+    // Every item's options are checked as `hbis fit` checks them before
+    // any is run: a typo costs nothing.
+    for p in &plans {
+        parse_fit(&p.args).with_context(|| describe(&study, &p.item))?;
     }
     if a.collect {
-        return collect(&a, &study, &items, &plans);
+        let path = batch_run::collect(&study, &plans, &a.out, &a.manifest)?;
+        eprintln!("wrote {} ({} items)", path.display(), plans.len());
+        return Ok(());
     }
-    let mine: Vec<usize> = (0..items.len())
-        .filter(|&k| shard.holds(&items[k]))
-        .collect();
     eprintln!(
         "study {}: {} items ({} records x {} models x {} seeds); shard {shard}: {} items",
         a.manifest.display(),
-        items.len(),
+        plans.len(),
         study.records.len(),
         study.models.len(),
         study.seeds.len(),
-        mine.len()
+        plans.iter().filter(|p| shard.holds(&p.item)).count()
     );
-    let mut failed = Vec::new();
-    for (n, &k) in mine.iter().enumerate() {
-        let (item, p) = (&items[k], &plans[k]);
-        let what = describe(&study, item);
-        if p.is_done()? {
-            eprintln!("[{}/{}] {what}: complete, skipped", n + 1, mine.len());
-            continue;
-        }
-        eprintln!(
-            "[{}/{}] {what}: fitting into {}",
-            n + 1,
-            mine.len(),
-            p.folder.display()
-        );
-        let started = std::time::Instant::now();
-        match p.fit_args().and_then(fit::run).and_then(|()| p.stamp()) {
-            Ok(()) => eprintln!(
-                "[{}/{}] {what}: done in {:.1} s",
-                n + 1,
-                mine.len(),
-                started.elapsed().as_secs_f64()
-            ),
-            Err(e) => {
-                let chain: Vec<String> = e.chain().map(|c| c.to_string()).collect();
-                eprintln!(
-                    "[{}/{}] {what}: error: {}",
-                    n + 1,
-                    mine.len(),
-                    chain.join(": ")
-                );
-                failed.push(what);
-            }
-        }
-    }
-    let name = if shard == Shard::ALL {
-        "summary.csv".to_string()
-    } else {
-        format!("summary-shard-{}-of-{}.csv", shard.index, shard.count)
+    let mut fit = |p: &Plan| -> Result<(), Vec<String>> {
+        parse_fit(&p.args)
+            .and_then(fit::run)
+            .map_err(|e| e.chain().map(|c| c.to_string()).collect())
     };
-    let done: Vec<usize> = mine
-        .iter()
-        .copied()
-        .filter(|&k| plans[k].is_done().unwrap_or(false))
-        .collect();
-    write_summary(&a, &study, &items, &plans, &done, &name)?;
-    if !failed.is_empty() {
-        anyhow::bail!(
-            "{} of {} items failed (their errors are above; rerun to retry them, finished items are skipped): {}",
-            failed.len(),
-            mine.len(),
-            failed.join("; ")
-        );
-    }
+    let mut on_event = |e: Event<'_>| match e {
+        Event::Skipped { n, of, plan } => {
+            eprintln!(
+                "[{n}/{of}] {}: complete, skipped",
+                describe(&study, &plan.item)
+            )
+        }
+        Event::Fitting { n, of, plan } => eprintln!(
+            "[{n}/{of}] {}: fitting into {}",
+            describe(&study, &plan.item),
+            plan.folder.display()
+        ),
+        Event::Done {
+            n,
+            of,
+            plan,
+            seconds,
+        } => eprintln!(
+            "[{n}/{of}] {}: done in {seconds:.1} s",
+            describe(&study, &plan.item)
+        ),
+        Event::Failed { n, of, plan, chain } => eprintln!(
+            "[{n}/{of}] {}: error: {}",
+            describe(&study, &plan.item),
+            chain.join(": ")
+        ),
+        Event::Summary { path, items } => {
+            eprintln!("wrote {} ({items} items)", path.display())
+        }
+    };
+    batch_run::run(
+        &study,
+        &plans,
+        shard,
+        &a.out,
+        &a.manifest,
+        &mut fit,
+        &mut on_event,
+    )?;
     Ok(())
-}
-
-/// One item, ready to run.
-struct Plan {
-    folder: PathBuf,
-    record: PathBuf,
-    args: Vec<String>,
-    stamp: ItemStamp,
-    model: String,
-    seed: u64,
-}
-
-fn describe(study: &Study, item: &Item) -> String {
-    format!(
-        "item {} (record {}, model {}, seed {})",
-        item.index + 1,
-        study.records[item.record].name,
-        item.model,
-        item.seed
-    )
-}
-
-fn plan(study: &Study, item: &Item, out: &Path) -> Result<Plan> {
-    let folder = out.join(item.folder(study));
-    let args = study.fit_args(item, &folder);
-    parse_fit(&args)?;
-    let record = study.records[item.record].path.clone();
-    let sha = InputEntry::of(&record)
-        .with_context(|| format!("record {}", record.display()))?
-        .sha256;
-    let mut registry = super::base_registry();
-    let mut effects_sha256 = Vec::new();
-    for e in &study.effects {
-        registry
-            .load_effect_file(e)
-            .with_context(|| format!("effects: {}", e.display()))?;
-        effects_sha256.push(InputEntry::of(e)?.sha256);
-    }
-    let model = super::inputs::model(&registry, &item.model)?.name();
-    // The output folder is where the results go, not what they are.
-    let mut kept = args.clone();
-    if let Some(i) = kept.iter().position(|x| x == "--out") {
-        kept.drain(i..i + 2);
-    }
-    Ok(Plan {
-        folder,
-        record,
-        args,
-        stamp: ItemStamp {
-            args: kept,
-            record_sha256: sha,
-            effects_sha256,
-        },
-        model,
-        seed: item.seed,
-    })
 }
 
 /// Parses `hbis fit` arguments as the binary does; a clap error becomes
@@ -220,94 +135,4 @@ fn parse_fit(args: &[String]) -> Result<fit::Args> {
                     .trim_start_matches("error: ")
             )
         })
-}
-
-impl Plan {
-    fn fit_args(&self) -> Result<fit::Args> {
-        parse_fit(&self.args)
-    }
-
-    /// Whether a complete result of this very item is in its folder.
-    fn is_done(&self) -> Result<bool> {
-        let Ok(text) = std::fs::read_to_string(self.folder.join(MANIFEST)) else {
-            return Ok(false);
-        };
-        let Ok(m) = serde_json::from_str::<Manifest>(&text) else {
-            return Ok(false);
-        };
-        let same_run =
-            m.complete && m.command == "fit" && m.seed == self.seed && m.model == self.model;
-        let stamp = std::fs::read_to_string(self.folder.join(STAMP))
-            .ok()
-            .and_then(|t| serde_json::from_str::<ItemStamp>(&t).ok());
-        Ok(same_run
-            && stamp.as_ref() == Some(&self.stamp)
-            && m.record.as_ref().map(|r| &r.sha256) == Some(&self.stamp.record_sha256))
-    }
-
-    /// Records what the finished item was run with.
-    fn stamp(&self) -> Result<()> {
-        let text = serde_json::to_string_pretty(&self.stamp)? + "\n";
-        write_file_atomic(&self.folder.join(STAMP), &[&self.record], text.as_bytes())?;
-        Ok(())
-    }
-}
-
-fn collect(a: &Args, study: &Study, items: &[Item], plans: &[Plan]) -> Result<()> {
-    let mut missing = Vec::new();
-    for (item, p) in items.iter().zip(plans) {
-        if !p.is_done()? {
-            missing.push(describe(study, item));
-        }
-    }
-    if !missing.is_empty() {
-        let shown: Vec<&String> = missing.iter().take(10).collect();
-        anyhow::bail!(
-            "{} of {} items have no complete result in {} (run their shards; finished items are skipped): {}{}",
-            missing.len(),
-            items.len(),
-            a.out.display(),
-            shown.iter().map(|s| s.as_str()).collect::<Vec<_>>().join("; "),
-            if missing.len() > 10 { "; ..." } else { "" }
-        );
-    }
-    let all: Vec<usize> = (0..items.len()).collect();
-    write_summary(a, study, items, plans, &all, "summary.csv")
-}
-
-/// Writes the tidy summary of `which` items (in the study's order).
-fn write_summary(
-    a: &Args,
-    study: &Study,
-    items: &[Item],
-    plans: &[Plan],
-    which: &[usize],
-    name: &str,
-) -> Result<()> {
-    let mut text = summary_header();
-    for &k in which {
-        let path = plans[k].folder.join("fit.json");
-        let fit: serde_json::Value = serde_json::from_str(
-            &std::fs::read_to_string(&path)
-                .with_context(|| format!("cannot read {}", path.display()))?,
-        )
-        .with_context(|| format!("in {}", path.display()))?;
-        let item = &items[k];
-        text.push_str(&summary_rows(
-            &study.records[item.record].name,
-            &item.model,
-            item.seed,
-            &fit,
-        ));
-    }
-    std::fs::create_dir_all(&a.out)
-        .with_context(|| format!("cannot create folder {}", a.out.display()))?;
-    let path = a.out.join(name);
-    let inputs: Vec<&Path> = std::iter::once(a.manifest.as_path())
-        .chain(study.records.iter().map(|r| r.path.as_path()))
-        .collect();
-    write_file_atomic(&path, &inputs, text.as_bytes())?;
-    let mut err = std::io::stderr().lock();
-    writeln!(err, "wrote {} ({} items)", path.display(), which.len())?;
-    Ok(())
 }

@@ -226,7 +226,7 @@ fn earthquake(out: &mut impl Write, dir: &mut OutDir) -> Result<()> {
     let fit_dir = dir.path("fit");
     let fit = hbis::predict::FitDraws::read(&fit_dir)?;
     let motion = hbis::data::ground_motion::KanaiTajimi::default().generate(SEED)?;
-    let job = super::predict::Job {
+    let job = hbis::study::prediction::PredictJob {
         model: fit.model.clone(),
         draws: fit.thinned(1000),
         fit: Some(fit_dir.clone()),
@@ -247,7 +247,7 @@ fn earthquake(out: &mut impl Write, dir: &mut OutDir) -> Result<()> {
     )?;
     let pred_dir = dir.path("predict");
     dir.set_prefix("predict");
-    let (p, _) = super::predict::write(dir, &job)?;
+    let (p, _) = hbis::study::prediction::write_prediction(dir, &job)?;
     dir.set_prefix("");
     super::predict::print_summary(out, &p, job.draws.len(), &job.motion)?;
     for w in &p.warnings {

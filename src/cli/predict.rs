@@ -7,11 +7,9 @@ use anyhow::{bail, Context, Result};
 use hbis::data::ground_motion::{GroundMotion, KanaiTajimi};
 use hbis::data::validation::AccelUnits;
 use hbis::model::{ForwardModel, Model};
-use hbis::predict::{
-    predict, Draw, Extrapolation, FitDraws, PredictOptions, Prediction, Stats, Summary,
-};
+use hbis::predict::{Draw, FitDraws, PredictOptions, Prediction, Stats};
 use hbis::report::outdir::{InputEntry, OutDir};
-use serde::Serialize;
+use hbis::study::prediction::{write_prediction, PredictJob};
 
 use super::inputs;
 
@@ -76,59 +74,11 @@ pub struct Args {
     json: bool,
 }
 
-/// `predict.json`.
-#[derive(Debug, Serialize)]
-struct Report<'a> {
-    hbis_version: &'a str,
-    command: &'a str,
-    model: String,
-    seed: u64,
-    source: Source,
-    motion: MotionInfo,
-    tail: f64,
-    capacity: Option<f64>,
-    draws: usize,
-    summary: &'a Summary,
-    p_exceed_capacity: Option<f64>,
-    extrapolation: &'a Extrapolation,
-    warnings: &'a [String],
-}
-
-#[derive(Debug, Serialize)]
-struct Source {
-    fit: Option<String>,
-    params: Option<String>,
-    fit_seed: Option<u64>,
-}
-
-#[derive(Debug, Serialize)]
-struct MotionInfo {
-    source: String,
-    dt: f64,
-    samples: usize,
-    duration: f64,
-    pga: f64,
-    scale: f64,
-}
-
-/// One prediction to run and write.
-pub(super) struct Job {
-    pub model: Model,
-    pub draws: Vec<Draw>,
-    pub fit: Option<PathBuf>,
-    pub fit_seed: Option<u64>,
-    pub params: Option<PathBuf>,
-    pub motion: GroundMotion,
-    pub scale: f64,
-    pub seed: u64,
-    pub opts: PredictOptions,
-}
-
 pub fn run(a: Args) -> Result<()> {
     check(&a)?;
     let motion = motion(&a)?;
     let (model, draws, fit_seed) = draws(&a)?;
-    let job = Job {
+    let job = PredictJob {
         model,
         draws,
         fit: a.fit.clone(),
@@ -155,7 +105,7 @@ pub fn run(a: Args) -> Result<()> {
     .flatten()
     .collect();
     let mut dir = OutDir::open(&a.out, &inputs, "predict")?;
-    let (p, json) = write(&mut dir, &job)?;
+    let (p, json) = write_prediction(&mut dir, &job)?;
     let record = a.motion.as_deref().map(InputEntry::of).transpose()?;
     dir.finish("predict", a.seed, &job.model.name(), record)?;
     for w in &p.warnings {
@@ -172,55 +122,6 @@ pub fn run(a: Args) -> Result<()> {
         a.out.join("predict.json").display()
     )?;
     Ok(())
-}
-
-/// Runs `job` and writes its outputs into `dir`; returns the prediction
-/// and `predict.json`'s text.
-pub(super) fn write(dir: &mut OutDir, job: &Job) -> Result<(Prediction, String)> {
-    let (model, draws, motion) = (&job.model, &job.draws, &job.motion);
-    let p = predict(model, draws, motion.dt, &motion.ag, &job.opts)?;
-    let report = Report {
-        hbis_version: env!("CARGO_PKG_VERSION"),
-        command: "predict",
-        model: model.name(),
-        seed: job.seed,
-        source: Source {
-            fit: job.fit.as_ref().map(|p| p.display().to_string()),
-            params: job.params.as_ref().map(|p| p.display().to_string()),
-            fit_seed: job.fit_seed,
-        },
-        motion: MotionInfo {
-            source: motion.source.clone(),
-            dt: motion.dt,
-            samples: motion.ag.len(),
-            duration: motion.duration(),
-            pga: motion.pga(),
-            scale: job.scale,
-        },
-        tail: job.opts.tail,
-        capacity: job.opts.capacity,
-        draws: draws.len(),
-        summary: &p.summary,
-        p_exceed_capacity: p.p_exceed_capacity,
-        extrapolation: &p.extrapolation,
-        warnings: &p.warnings,
-    };
-    let json = serde_json::to_string_pretty(&report)? + "\n";
-    let capacity = job.opts.capacity;
-    dir.write(
-        "draws.csv",
-        draws_csv(model, draws, &p, capacity).as_bytes(),
-    )?;
-    if let Some(b) = &p.band {
-        let mut s = String::from("t,q05,q50,q95\n");
-        for i in 0..b.t.len() {
-            s += &format!("{},{},{},{}\n", b.t[i], b.q05[i], b.q50[i], b.q95[i]);
-        }
-        dir.write("band.csv", s.as_bytes())?;
-    }
-    figures(dir, &p, motion, capacity)?;
-    dir.write("predict.json", json.as_bytes())?;
-    Ok((p, json))
 }
 
 /// Settings refused before any work.
@@ -317,63 +218,6 @@ fn draws(a: &Args) -> Result<(Model, Vec<Draw>, Option<u64>)> {
         draws.iter_mut().for_each(|d| d.mass = Some(m));
     }
     Ok((model, draws, seed))
-}
-
-fn draws_csv(model: &Model, draws: &[Draw], p: &Prediction, capacity: Option<f64>) -> String {
-    let names = model.param_names();
-    let mut s = String::from("draw,chain,row,");
-    s += &names.join(",");
-    s += ",m,peak_displacement,residual_displacement,peak_base_shear,peak_total_acceleration,peak_base_shear_kN,exceeds_capacity\n";
-    let opt = |x: Option<f64>| x.map(|v| v.to_string()).unwrap_or_default();
-    for (i, (d, o)) in draws.iter().zip(&p.outcomes).enumerate() {
-        let (chain, row) = d.origin.map_or((String::new(), String::new()), |(c, r)| {
-            (c.to_string(), r.to_string())
-        });
-        let theta: Vec<String> = d.theta.iter().map(f64::to_string).collect();
-        let k = &o.peaks;
-        s += &format!(
-            "{},{chain},{row},{},{},{},{},{},{},{},{}\n",
-            i + 1,
-            theta.join(","),
-            opt(d.mass),
-            k.peak_displacement,
-            k.residual_displacement,
-            k.peak_base_shear,
-            k.peak_total_acceleration,
-            opt(o.peak_base_shear_kn),
-            capacity.map_or(String::new(), |c| (k.peak_displacement > c).to_string()),
-        );
-    }
-    s
-}
-
-#[cfg(feature = "figures")]
-fn figures(
-    dir: &mut OutDir,
-    p: &Prediction,
-    motion: &GroundMotion,
-    capacity: Option<f64>,
-) -> Result<()> {
-    use hbis::report::figures;
-    if let Some(b) = &p.band {
-        dir.write_with("response.png", |tmp| {
-            figures::response_band_figure(tmp, b, (motion.dt, &motion.ag), capacity)
-        })?;
-    }
-    let peaks: Vec<f64> = p
-        .outcomes
-        .iter()
-        .map(|o| o.peaks.peak_displacement)
-        .collect();
-    dir.write_with("peak-displacement.png", |tmp| {
-        figures::peak_displacement_figure(tmp, &peaks, capacity, p.p_exceed_capacity)
-    })?;
-    Ok(())
-}
-
-#[cfg(not(feature = "figures"))]
-fn figures(_: &mut OutDir, _: &Prediction, _: &GroundMotion, _: Option<f64>) -> Result<()> {
-    Ok(())
 }
 
 pub(super) fn print_summary(

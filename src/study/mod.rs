@@ -11,13 +11,16 @@
 //! - [`criticize`]: `diagnose` and `ladder`, their reports
 //!   (`diagnosis.json`, `ladder.json`) and figures;
 //! - [`predict`]: the posterior predictive response to an earthquake and the
-//!   reader of a fit's draws;
-//! - [`batch`]: studies of many records (manifest, items, shards, summary).
+//!   reader of a fit's draws; its job and files in [`prediction`];
+//! - [`batch`]: studies of many records (manifest, items, shards, summary),
+//!   run by [`batch_run`] (skipping, stamps, the summary).
 
 pub mod batch;
+pub mod batch_run;
 pub mod criticize;
 pub mod fit;
 pub mod outputs;
 pub mod predict;
+pub mod prediction;
 
 pub use fit::*;
