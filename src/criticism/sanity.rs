@@ -148,6 +148,66 @@ pub fn fit_warnings(names: &[String], theta: &[f64], e2: f64, priors: &Priors) -
     w
 }
 
+/// Share of the draws below which a basin close to the MAP counts as not
+/// visited by the sampler.
+pub const UNVISITED_SHARE: f64 = 0.01;
+
+/// A basin this close to the MAP (nats) should hold draws.
+pub const CLOSE_BASIN: f64 = 3.0;
+
+/// `several-basins`: the posterior has more than one basin, with the
+/// numbers that found them, where the intervals come from, and whether a
+/// basin close to the MAP went unvisited.
+pub fn several_basins(
+    basins: &[crate::inference::basins::Basin],
+    evidence: bool,
+) -> Option<Warning> {
+    if basins.len() < 2 {
+        return None;
+    }
+    let rest = &basins[1..];
+    let list = |f: &dyn Fn(&crate::inference::basins::Basin) -> String| {
+        rest.iter().map(f).collect::<Vec<_>>().join(", ")
+    };
+    let mut message = format!(
+        "the posterior has {} basins: the MAP search ended in places separated by falls of the log-posterior of {} nats, {} nats below the MAP; ",
+        basins.len(),
+        list(&|b| format!("{:.1}", b.barrier)),
+        list(&|b| format!("{:.2}", b.below_map)),
+    );
+    if basins.iter().all(|b| b.share.is_some()) {
+        let shares: Vec<String> = basins
+            .iter()
+            .map(|b| format!("{:.1} %", 100.0 * b.share.unwrap_or(0.0)))
+            .collect();
+        message += &format!(
+            "the intervals are the sampler's, started in every basin (shares of the kept draws, the MAP's basin first: {}), not a Gaussian (Laplace) approximation at the MAP, which would describe its basin only",
+            shares.join(", ")
+        );
+        let unvisited: Vec<String> = rest
+            .iter()
+            .filter(|b| b.below_map < CLOSE_BASIN && b.share.unwrap_or(0.0) < UNVISITED_SHARE)
+            .map(|b| format!("{:.2}", b.below_map))
+            .collect();
+        if !unvisited.is_empty() {
+            message += &format!(
+                "; basins {} nats below the MAP hold under {:.0} % of the draws: the sampler may not have mixed between basins (check trace.png, raise --max-steps)",
+                unvisited.join(", "),
+                100.0 * UNVISITED_SHARE
+            );
+        }
+    } else {
+        message += "a Gaussian (Laplace) approximation at the MAP describes its basin only: sample the posterior for intervals";
+    }
+    if evidence {
+        message += "; log_evidence is the Laplace evidence of the MAP's basin alone";
+    }
+    Some(Warning {
+        code: "several-basins".into(),
+        message,
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

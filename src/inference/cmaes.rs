@@ -117,6 +117,9 @@ pub struct RunSummary {
     pub evaluations: usize,
     /// Best value the run found.
     pub f_best: f64,
+    /// Where (the optimiser's coordinates): with the other runs' ends, it
+    /// shows whether the landscape has several basins.
+    pub x_best: Vec<f64>,
     /// Why it ended.
     pub stop: StopReason,
 }
@@ -330,6 +333,7 @@ impl Cmaes {
                 popsize,
                 evaluations: state.evaluations,
                 f_best: state.f_best,
+                x_best: state.x_best.clone(),
                 stop,
             });
             if state.f_best < best.f || best.x.is_empty() {

@@ -186,6 +186,10 @@ pub struct MapEstimate {
     pub cmaes_evaluations: usize,
     /// The CMA-ES runs (first, then restarts).
     pub runs: Vec<RunSummary>,
+    /// Where each run ended (the log-posterior's coordinates, before the
+    /// polish): ends apart with a fall of the log-posterior between them
+    /// are separate basins ([`crate::inference::basins`]).
+    pub ends: Vec<RunEnd>,
     /// The polish, if run.
     pub polish: Option<PolishReport>,
     /// Evaluations of the stages that prepared this search (the white-noise
@@ -194,6 +198,15 @@ pub struct MapEstimate {
     pub preparation_evaluations: u64,
     /// Wall time (s), preparation included.
     pub wall_time: f64,
+}
+
+/// Where one CMA-ES run ended.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RunEnd {
+    /// Its best point.
+    pub theta: Vec<f64>,
+    /// The log-posterior there.
+    pub log_posterior: f64,
 }
 
 impl MapEstimate {
@@ -261,6 +274,7 @@ where
     let mut best_u: Vec<f64> = Vec::new();
     let mut best_f = f64::INFINITY;
     let mut runs: Vec<RunSummary> = Vec::new();
+    let mut ends: Vec<RunEnd> = Vec::new();
     let mut evaluations = 0;
     // Runs that reached the best value so far (within `repeat_tol`).
     let mut hits = 0;
@@ -325,6 +339,10 @@ where
             large_runs += 1;
         }
         runs.push(result.runs[0].clone());
+        ends.push(RunEnd {
+            theta: to_theta(&result.x),
+            log_posterior: -result.f,
+        });
         if result.f < best_f - settings.repeat_tol {
             hits = 1;
         } else if (result.f - best_f).abs() <= settings.repeat_tol {
@@ -366,6 +384,7 @@ where
         eval,
         cmaes_evaluations: evaluations,
         runs,
+        ends,
         polish: polish_report,
         preparation_evaluations: 0,
         wall_time: clock.elapsed().as_secs_f64(),

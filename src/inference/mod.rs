@@ -2,6 +2,7 @@
 //! an `argmin` polish, the ensemble sampler and its diagnostics.
 
 pub mod autocorr;
+pub mod basins;
 pub mod bounds;
 pub mod cmaes;
 pub mod design;

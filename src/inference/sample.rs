@@ -82,6 +82,7 @@ pub struct SampleSettings {
     max_steps: usize,
     ess: Option<f64>,
     moves: Moves,
+    basins: Vec<Vec<f64>>,
 }
 
 /// The autocorrelation time is trusted only from a chain this many of its
@@ -111,6 +112,7 @@ impl Default for SampleSettings {
             max_steps: 20_000,
             ess: None,
             moves: Moves::parse(DEFAULT_MOVES).expect("valid default moves"),
+            basins: Vec::new(),
         }
     }
 }
@@ -208,6 +210,22 @@ impl SampleSettings {
     pub fn with_moves(mut self, moves: Moves) -> Self {
         self.moves = moves;
         self
+    }
+
+    /// Centres of further basins of the posterior
+    /// ([`crate::inference::basins`]): each ensemble's walkers are then
+    /// started in turn around the MAP and around each of these, so that the
+    /// draws reach every basin. The Gaussian independence move, fitted to
+    /// walkers in several basins, proposes across them, so the share of
+    /// each basin is the posterior's, not the start's. Default: none.
+    pub fn with_basins(mut self, centres: Vec<Vec<f64>>) -> Self {
+        self.basins = centres;
+        self
+    }
+
+    /// The centres of further basins the walkers start around.
+    pub fn basins(&self) -> &[Vec<f64>] {
+        &self.basins
     }
 
     /// The moves.
@@ -417,23 +435,24 @@ fn stream(seed: u64, ensemble: usize, chunk: u64) -> StdRng {
     StdRng::seed_from_u64(mix(mix(mix(seed) ^ ensemble as u64) ^ chunk))
 }
 
-/// Draws one ensemble around `center`.
+/// Draws one ensemble, walker `w` around `centres[w % centres.len()]`.
 fn start<D: LogDensity>(
     density: &D,
-    center: &[f64],
+    centres: &[&[f64]],
     scale: &[f64],
     walkers: usize,
     seed: u64,
     e: usize,
 ) -> Result<Ensemble, SampleError> {
     let mut rng = stream(seed, e, u64::MAX);
-    let dim = center.len();
+    let dim = centres[0].len();
     for attempt in 0..20 {
         let shrink = 0.5f64.powi(attempt);
         let mut positions = Vec::with_capacity(walkers);
         let mut tries = 0;
         while positions.len() < walkers && tries < 1000 * walkers {
             tries += 1;
+            let center = centres[positions.len() % centres.len()];
             let x: Vec<f64> = (0..dim)
                 .map(|k| {
                     let z: f64 = StandardNormal.sample(&mut rng);
@@ -818,7 +837,7 @@ fn fingerprint(
     for n in names {
         eat(n.as_bytes());
     }
-    for v in center.iter().chain(scale) {
+    for v in center.iter().chain(scale).chain(s.basins.iter().flatten()) {
         eat(&v.to_le_bytes());
     }
     eat(extra.as_bytes());
@@ -889,9 +908,12 @@ pub fn sample_posterior<D: LogDensity>(
                 // A fresh run: whatever the folder holds is stale.
                 cp.clear()?;
             }
+            let centres: Vec<&[f64]> = std::iter::once(center)
+                .chain(settings.basins.iter().map(Vec::as_slice))
+                .collect();
             let ensembles = (0..settings.ensembles)
                 .into_par_iter()
-                .map(|e| start(density, center, scale, walkers, seed, e))
+                .map(|e| start(density, &centres, scale, walkers, seed, e))
                 .collect::<Result<Vec<_>, _>>()?;
             (
                 status,

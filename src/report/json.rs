@@ -134,9 +134,29 @@ pub struct FitReport {
     /// Posterior of the Table 8.2 quantities (when forces were given).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub physical: Option<BTreeMap<String, ParamSummary>>,
+    /// The posterior's basins found by the MAP search, the MAP's first:
+    /// one entry when the posterior has a single basin
+    /// ([`crate::inference::basins`]).
+    pub basins: Vec<BasinReport>,
     /// What makes this result probably wrong (empty when nothing does):
     /// codes and meanings in `docs/cli.md`.
     pub warnings: Vec<Warning>,
+}
+
+/// One entry of `basins` in fit.json.
+#[derive(Debug, Clone, Serialize)]
+pub struct BasinReport {
+    /// Its best point, by parameter name.
+    pub theta: BTreeMap<String, f64>,
+    /// The log-posterior there.
+    pub log_posterior: f64,
+    /// Nats below the MAP.
+    pub below_map: f64,
+    /// The lowest fall of the log-posterior (nats) on the straight segment
+    /// to a basin listed before it (0 for the first).
+    pub barrier: f64,
+    /// Share of the kept draws nearest to it (when sampled).
+    pub share: Option<f64>,
 }
 
 /// `identifiability` in fit.json: one entry per parameter, and `design`.
@@ -260,6 +280,7 @@ impl FitReport {
             sampling: None,
             physical_map: None,
             physical: None,
+            basins: Vec::new(),
             warnings: Vec::new(),
         }
     }

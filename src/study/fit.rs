@@ -25,6 +25,7 @@ use rand::SeedableRng;
 use thiserror::Error;
 
 use crate::data::Aligned;
+use crate::inference::basins::{self, Basin};
 use crate::inference::design::{design_table, DesignError, DesignInput, DesignTable};
 use crate::inference::identifiability::{self, Identifiability, ParamInfo, Segments};
 use crate::inference::pipeline::{compare, fit_map, laplace_evidence, Comparison, PipelineError};
@@ -132,6 +133,10 @@ pub struct Fit {
     pub physical_map: Option<Physical>,
     /// Released force `F0^n` and static friction `F_fS` (kN), if given.
     pub forces: Option<(f64, f64)>,
+    /// The posterior's basins found by the MAP search, the MAP's first
+    /// (one when the posterior has a single basin), each with its share
+    /// of the kept draws once sampled.
+    pub basins: Vec<Basin>,
 }
 
 impl Fit {
@@ -167,6 +172,7 @@ pub fn fit_record(
         &mut rng,
     )?;
     let structured = crate::criticism::sanity::structured_at(&fit.posterior, &fit.map.theta);
+    let mut ends = fit.map.ends.clone();
     let second_search = if structured.is_some() {
         let again = fit_map(
             model.clone(),
@@ -184,6 +190,7 @@ pub fn fit_record(
             evaluations: again.map.evaluations(),
             kept_second: second > first,
         };
+        ends.extend(again.map.ends.iter().cloned());
         if s.kept_second {
             fit = again;
         }
@@ -192,6 +199,8 @@ pub fn fit_record(
         None
     };
     let (posterior, map) = (fit.posterior, fit.map);
+    let lp = |x: &[f64]| posterior.log_posterior(x);
+    let basins = basins::find(&lp, &map.theta, map.eval.log_posterior, &ends)?;
     let names = posterior.names().to_vec();
     let spec = model.spec();
     let comparison = compare(&posterior, &map.theta)?;
@@ -225,6 +234,7 @@ pub fn fit_record(
         physical: None,
         physical_map,
         forces: options.forces,
+        basins,
     };
     let Some(settings) = &options.sample else {
         return Ok(fit);
@@ -234,6 +244,11 @@ pub fn fit_record(
     let scale =
         conditional_scales(&fit.posterior, &fit.map.theta, &range).map_err(SampleError::from)?;
     let label = format!("{} {} {}", model.name(), noise.as_str(), options.label);
+    // Walkers start in every basin: the draws, not a Gaussian at the MAP,
+    // then say how the posterior spreads over them.
+    let settings = &settings
+        .clone()
+        .with_basins(fit.basins[1..].iter().map(|b| b.theta.clone()).collect());
     let sample = sample_posterior(
         &fit.posterior,
         &names,
@@ -247,6 +262,12 @@ pub fn fit_record(
     )?;
     let draws = sample.draws();
     let summaries: Vec<ParamSummary> = sample.summaries();
+    if fit.basins.len() > 1 {
+        let sd: Vec<f64> = summaries.iter().map(|s| s.sd).collect();
+        basins::shares(&mut fit.basins, &sample.points(), &sd);
+    } else if let Some(b) = fit.basins.first_mut() {
+        b.share = Some(1.0);
+    }
     let cov = covariance(&draws);
     let prior_sd: Vec<f64> = fit
         .posterior

@@ -13,7 +13,9 @@ use thiserror::Error;
 use crate::data::{Aligned, Warning};
 use crate::inference::Noise;
 use crate::model::ForwardModel;
-use crate::report::json::{Correlation, DataInfo, FitReport, IdentifiabilityReport, SamplingInfo};
+use crate::report::json::{
+    BasinReport, Correlation, DataInfo, FitReport, IdentifiabilityReport, SamplingInfo,
+};
 use crate::report::outdir::{OutDir, OutError};
 use crate::study::{predictive_band, Fit, StudyError};
 
@@ -146,6 +148,21 @@ pub fn fit_report(fit: &Fit, run: &FitRun, chains: Vec<String>, thin: Option<usi
             });
         }
     }
+    r.basins = fit
+        .basins
+        .iter()
+        .map(|b| BasinReport {
+            theta: by_name(&b.theta),
+            log_posterior: b.log_posterior,
+            below_map: b.below_map,
+            barrier: b.barrier,
+            share: b.share,
+        })
+        .collect();
+    r.warnings.extend(crate::criticism::sanity::several_basins(
+        &fit.basins,
+        fit.log_evidence.is_some(),
+    ));
     r.warnings.splice(0..0, run.record_warnings.iter().cloned());
     r
 }

@@ -7,6 +7,7 @@
 mod bin;
 mod common;
 
+mod basins;
 mod calibration;
 mod cli;
 mod cli_batch;
