@@ -4,7 +4,7 @@ use std::path::Path;
 
 use anyhow::{bail, Context, Result};
 use hbis::data::{record_warnings, AccelUnits, Aligned, Record, Warning};
-use hbis::model::{ForwardModel, Model, ModelSpec, Params, Registry};
+use hbis::model::{ForwardModel, Model, Registry};
 
 /// `--effects FILE` (repeatable): a user's effect files, added to the
 /// built-in catalog.
@@ -35,21 +35,6 @@ pub fn model(registry: &Registry, s: &str) -> Result<Model> {
     registry
         .parse(s)
         .with_context(|| format!("--model `{s}` (an effect file's component needs --effects FILE)"))
-}
-
-/// Parse a closed-form core spec argument (spring, friction, damper).
-pub fn spec(s: &str) -> Result<ModelSpec> {
-    s.parse::<ModelSpec>()
-        .with_context(|| format!("--model `{s}`"))
-}
-
-/// Read a parameter file for a model.
-pub fn params(path: &Path, spec: &ModelSpec) -> Result<Params> {
-    let text = std::fs::read_to_string(path)
-        .with_context(|| format!("cannot read parameter file {}", path.display()))?;
-    let map = Params::map_from_json(&text).with_context(|| format!("in {}", path.display()))?;
-    spec.params_from_map(&map)
-        .with_context(|| format!("in {}", path.display()))
 }
 
 /// Create the parent folder of an output file if needed.
@@ -135,7 +120,7 @@ pub fn model_params(model: &Model, path: &Path) -> Result<Vec<f64>> {
     let names = model.param_names();
     if let Some(k) = obj.keys().find(|k| !names.contains(k)) {
         bail!(
-            "{}: unknown parameter `{k}` for model `{}` (its parameters: {})",
+            "{}: parameter `{k}` is not used by model `{}` (its parameters: {})",
             within(),
             model.name(),
             names.join(", ")

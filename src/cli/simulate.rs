@@ -5,7 +5,7 @@ use std::path::PathBuf;
 
 use anyhow::{Context, Result};
 use hbis::model::response::grid_len;
-use hbis::model::{ForwardModel, Response, SimError};
+use hbis::model::{ForwardModel, Model, Response, SimError};
 use hbis::report;
 use hbis::report::outdir::{refuse_same_file, write_file_atomic, write_path_atomic};
 
@@ -40,14 +40,17 @@ pub struct Args {
 }
 
 pub fn run(a: Args) -> Result<()> {
-    let spec = match inputs::spec(&a.model) {
-        Ok(spec) => spec,
-        // Beyond the closed-form core: any model of the registry.
-        Err(_) => return run_model(&a),
-    };
-    let params = inputs::params(&a.params, &spec)?;
+    let registry = a.effects.registry()?;
+    let model = inputs::model(&registry, &a.model)?;
+    if !model.is_core() {
+        return run_model(&a, &model);
+    }
+    // The closed-form core: its phases and their events, exactly.
+    let theta = inputs::model_params(&model, &a.params)?;
+    let params = model.core_params(&theta)?;
     check_grid(&a)?;
-    let response = Response::simulate(&spec, &params, a.duration)?;
+    let spec = model.name();
+    let response = Response::simulate(&model.spec(), &params, a.duration)?;
     let samples = response.sample_grid(a.dt)?;
     let mut csv = Vec::new();
     report::csv::write_samples(&mut csv, &samples).context("formatting the samples")?;
@@ -95,9 +98,7 @@ fn check_grid(a: &Args) -> Result<()> {
 /// A model with components beyond the core: its motion by the engine the
 /// model runs on, written as `t,u,v,a,phase` (`a` as the accelerometer
 /// records it, output components included).
-fn run_model(a: &Args) -> Result<()> {
-    let registry = a.effects.registry()?;
-    let model = inputs::model(&registry, &a.model)?;
+fn run_model(a: &Args, model: &Model) -> Result<()> {
     if let Some((flag, _)) = [("--phases", &a.phases), ("--figure", &a.figure)]
         .into_iter()
         .find(|(_, p)| p.is_some())

@@ -110,6 +110,12 @@ impl Model {
         self.spec
     }
 
+    /// Whether it is the closed-form core alone (spring, friction, damper;
+    /// no other component): its response has phases with exact events.
+    pub fn is_core(&self) -> bool {
+        self.forces.is_empty() && self.outputs.is_empty()
+    }
+
     /// The force components beyond the core.
     pub fn forces(&self) -> &[Arc<dyn ForceComponent>] {
         &self.forces

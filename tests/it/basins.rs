@@ -104,7 +104,10 @@ fn two_basins_are_sampled_both_and_reported() {
         sample.steps(),
         sample.converged
     );
-    assert!(ess >= 50.0, "the walkers crossed between the basins {flips} times");
+    assert!(
+        ess >= 50.0,
+        "the walkers crossed between the basins {flips} times"
+    );
     assert!((share - 0.5).abs() < tol, "share {share}, effective {ess}");
 
     // The sampler's 90 % interval spans both signs; a Gaussian at the MAP
