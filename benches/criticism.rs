@@ -16,7 +16,7 @@ fn record() -> Aligned {
     let spec = ModelSpec::FULL;
     let truth = Params::table_8_1(8).unwrap().to_theta(&spec);
     let mut rng = StdRng::seed_from_u64(4);
-    synthesize(&spec, &truth, 0.005, 2001, 0.015, &mut rng)
+    synthesize(&Model::from(spec), &truth, 0.005, 2001, 0.015, &mut rng)
         .unwrap()
         .record
         .aligned(None)

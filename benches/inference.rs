@@ -10,17 +10,17 @@ use hbis::data::synthesize;
 use hbis::inference::{
     conditional_scales, find_map, sample_posterior, MapSettings, Noise, Posterior, SampleSettings,
 };
-use hbis::model::{ForwardModel, ModelSpec, Params};
+use hbis::model::{ForwardModel, Model, ModelSpec, Params};
 use rand::{rngs::StdRng, SeedableRng};
 
-fn posterior() -> (Posterior<ModelSpec>, Vec<f64>) {
+fn posterior() -> (Posterior<Model>, Vec<f64>) {
     let spec = ModelSpec::FULL;
     let truth = Params::table_8_1(5).unwrap().to_theta(&spec);
     let mut rng = StdRng::seed_from_u64(3);
-    let syn = synthesize(&spec, &truth, 0.005, 2001, 0.015, &mut rng).unwrap();
+    let syn = synthesize(&Model::from(spec), &truth, 0.005, 2001, 0.015, &mut rng).unwrap();
     let data = syn.record.aligned(None).unwrap();
     (
-        Posterior::with_default_priors(spec, data, Noise::White).unwrap(),
+        Posterior::with_default_priors(Model::from(spec), data, Noise::White).unwrap(),
         truth,
     )
 }
@@ -32,7 +32,7 @@ fn log_posterior(c: &mut Criterion) {
     let mut g = c.benchmark_group("posterior_2001");
     g.bench_function("forward_model", |b| {
         b.iter(|| {
-            ModelSpec::FULL
+            post.model()
                 .accel_into(black_box(&theta), 0.005, &mut out)
                 .unwrap()
         })

@@ -98,8 +98,14 @@ fn forward_model(c: &mut Criterion) {
     let spec = ModelSpec::FULL;
     let theta = Params::table_8_1(5).unwrap().to_theta(&spec);
     let mut out = vec![0.0; 2001];
+    // The core alone: parameters from the vector, the system resolved.
     c.bench_function("spec_test5_2001", |b| {
-        b.iter(|| spec.accel_into(black_box(&theta), 0.005, &mut out).unwrap())
+        b.iter(|| {
+            let p = spec.params_from_slice(black_box(&theta)).unwrap();
+            System::new(&spec, &p)
+                .accel_grid_into(0.0, 0.005, &mut out, &SimOptions::default())
+                .unwrap()
+        })
     });
     let model = hbis::model::Model::from(ModelSpec::FULL);
     let theta_m = model

@@ -25,7 +25,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let spec = ModelSpec::FULL;
     let truth = Params::table_8_1(5).unwrap().to_theta(&spec);
     let mut rng = StdRng::seed_from_u64(5);
-    let record = synthesize(&spec, &truth, 0.005, 2001, 0.015, &mut rng)?.record;
+    let record = synthesize(
+        &hbis::model::Model::from(spec),
+        &truth,
+        0.005,
+        2001,
+        0.015,
+        &mut rng,
+    )?
+    .record;
     let fit = fit_record(
         spec,
         record.aligned(None)?,

@@ -23,7 +23,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         None => {
             let truth = Params::table_8_1(5).unwrap().to_theta(&spec);
             let mut rng = StdRng::seed_from_u64(5);
-            synthesize(&spec, &truth, 0.005, 2001, 0.015, &mut rng)?.record
+            synthesize(
+                &hbis::model::Model::from(spec),
+                &truth,
+                0.005,
+                2001,
+                0.015,
+                &mut rng,
+            )?
+            .record
         }
     };
     let options = FitOptions {

@@ -8,28 +8,26 @@
 
 use hbis::data::{synthesize, Record};
 use hbis::inference::{find_map, MapSettings, Noise, Posterior};
-use hbis::model::{ModelSpec, Params};
+use hbis::model::{ForwardModel, Params, Registry};
 use rand::{rngs::StdRng, SeedableRng};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
-    let spec: ModelSpec = args
-        .get(1)
-        .map_or("trilinear+lcfm+viscous", |s| s)
-        .parse()?;
+    let model = Registry::builtin().parse(args.get(1).map_or("trilinear+lcfm+viscous", |s| s))?;
     let mut rng = StdRng::seed_from_u64(42);
     let record = match args.first() {
         Some(path) => Record::read(path.as_ref())?,
         None => {
-            let truth = Params::table_8_1(5).unwrap().to_theta(&spec);
-            synthesize(&spec, &truth, 0.005, 2001, 0.015, &mut rng)?.record
+            let truth = model.theta_from_params(&Params::table_8_1(5).unwrap(), &[])?;
+            synthesize(&model, &truth, 0.005, 2001, 0.015, &mut rng)?.record
         }
     };
     let data = record.aligned(None)?;
-    let posterior = Posterior::with_default_priors(spec, data, Noise::White)?;
+    let posterior = Posterior::with_default_priors(model.clone(), data, Noise::White)?;
     let map = find_map(&posterior, &MapSettings::default(), &mut rng)?;
     println!(
-        "{spec}: e2 = {:.5} after {} evaluations",
+        "{}: e2 = {:.5} after {} evaluations",
+        model.name(),
         map.eval.e2,
         map.evaluations()
     );

@@ -35,7 +35,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     for (k, (label, p)) in cases.iter().enumerate() {
         let truth = p.to_theta(&spec);
         let mut rng = StdRng::seed_from_u64(seed + k as u64);
-        let syn = synthesize(&spec, &truth, 0.005, 2001, 0.015, &mut rng)?;
+        let syn = synthesize(
+            &hbis::model::Model::from(spec),
+            &truth,
+            0.005,
+            2001,
+            0.015,
+            &mut rng,
+        )?;
         let options = FitOptions {
             seed: seed + k as u64,
             ..FitOptions::default()

@@ -54,7 +54,15 @@ pub fn record(seed: u64) -> (ModelSpec, Vec<f64>, Synthetic) {
     let spec: ModelSpec = "trilinear+lcfm+viscous".parse().expect("a valid spec");
     let mut rng = StdRng::seed_from_u64(seed);
     let truth = random_wide_params(&mut rng).to_theta(&spec);
-    let syn = synthesize(&spec, &truth, 0.005, 2001, 0.015, &mut rng).expect("simulates");
+    let syn = synthesize(
+        &hbis::model::Model::from(spec),
+        &truth,
+        0.005,
+        2001,
+        0.015,
+        &mut rng,
+    )
+    .expect("simulates");
     (spec, truth, syn)
 }
 
@@ -70,9 +78,12 @@ pub fn fit_one(seed: u64) -> Outcome {
     };
     // The floor on the record as made (released at its first sample), not
     // as the fit placed it: a misplaced release must not lower the floor.
-    let truth_post =
-        hbis::inference::Posterior::with_default_priors(spec, data.clone(), Noise::White)
-            .expect("priors");
+    let truth_post = hbis::inference::Posterior::with_default_priors(
+        hbis::model::Model::from(spec),
+        data.clone(),
+        Noise::White,
+    )
+    .expect("priors");
     let floor = truth_post.evaluate(&truth).expect("the truth runs").e2;
     let fit = fit_record(
         Model::from(spec),

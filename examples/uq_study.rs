@@ -31,7 +31,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     for (i, test) in TESTS.iter().enumerate() {
         let truth = Params::table_8_1(*test).unwrap().to_theta(&spec);
         let mut rng = StdRng::seed_from_u64(100 + *test as u64);
-        let record = synthesize(&spec, &truth, 0.005, 2001, 0.015, &mut rng)?.record;
+        let record = synthesize(
+            &hbis::model::Model::from(spec),
+            &truth,
+            0.005,
+            2001,
+            0.015,
+            &mut rng,
+        )?
+        .record;
         let options = FitOptions {
             seed: *test as u64,
             sample: Some(SampleSettings::default().with_tau_multiple(20.0)?),

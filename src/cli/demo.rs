@@ -83,7 +83,14 @@ fn criticize(out: &mut impl Write, dir: &mut OutDir) -> Result<()> {
         .context("Table 8.1 has Test 8")?
         .to_theta(&spec);
     let mut rng = StdRng::seed_from_u64(SEED + 8);
-    let syn = synthesize(&spec, &truth, DT, grid_len(DT, DURATION), 0.015, &mut rng)?;
+    let syn = synthesize(
+        &hbis::model::Model::from(spec),
+        &truth,
+        DT,
+        grid_len(DT, DURATION),
+        0.015,
+        &mut rng,
+    )?;
     dir.write("record-hidden.csv", syn.record.to_csv().as_bytes())?;
     let path = dir.path("record-hidden.csv");
     writeln!(
@@ -133,7 +140,14 @@ fn identify(out: &mut impl Write, dir: &mut OutDir) -> Result<()> {
         .to_theta(&spec);
     let mut rng = StdRng::seed_from_u64(SEED);
     let n = grid_len(DT, DURATION);
-    let syn = synthesize(&spec, &truth, DT, n, 0.015, &mut rng)?;
+    let syn = synthesize(
+        &hbis::model::Model::from(spec),
+        &truth,
+        DT,
+        n,
+        0.015,
+        &mut rng,
+    )?;
     dir.write("record.csv", syn.record.to_csv().as_bytes())?;
     let record_path = dir.path("record.csv");
     writeln!(

@@ -108,7 +108,7 @@ fn run_model(a: &Args, model: &Model) -> Result<()> {
             model.name()
         );
     }
-    let theta = inputs::model_params(&model, &a.params)?;
+    let theta = inputs::model_params(model, &a.params)?;
     check_grid(a)?;
     let n = grid_len(a.dt, a.duration);
     let motion = model.motion_grid(&theta, 0.0, a.dt, n)?;

@@ -911,7 +911,15 @@ mod tests {
         let spec = ModelSpec::FULL;
         let theta = Params::table_8_1(k).unwrap().to_theta(&spec);
         let mut rng = StdRng::seed_from_u64(seed);
-        let syn = crate::data::synthesize(&spec, &theta, 0.005, 1901, noise, &mut rng).unwrap();
+        let syn = crate::data::synthesize(
+            &crate::model::Model::from(spec),
+            &theta,
+            0.005,
+            1901,
+            noise,
+            &mut rng,
+        )
+        .unwrap();
         let rest = Normal::new(0.0, syn.sigma.max(1e-300)).unwrap();
         let mut a: Vec<f64> = (0..100).map(|_| rest.sample(&mut rng)).collect();
         a.extend_from_slice(syn.record.a());
@@ -1055,7 +1063,15 @@ mod tests {
             for dt in [0.02, 0.05] {
                 let n = (20.0 / dt) as usize;
                 let mut rng = StdRng::seed_from_u64(0);
-                let syn = crate::data::synthesize(&spec, &theta, dt, n, 0.0, &mut rng).unwrap();
+                let syn = crate::data::synthesize(
+                    &crate::model::Model::from(spec),
+                    &theta,
+                    dt,
+                    n,
+                    0.0,
+                    &mut rng,
+                )
+                .unwrap();
                 let o = syn.record.outliers();
                 assert!(o.is_empty(), "test {k} dt {dt}: {o:?}");
             }

@@ -323,7 +323,7 @@ pub fn record_warnings(record: &Record, aligned: &Aligned) -> Vec<Warning> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::model::{ForwardModel, ModelSpec, Params};
+    use crate::model::{ModelSpec, Params};
     use rand::{rngs::StdRng, RngExt, SeedableRng};
     use rand_distr::{Distribution, Normal};
 
@@ -333,9 +333,15 @@ mod tests {
     /// rest, 2001 samples in all, with noise of `noise` times the peak.
     fn released(theta: &[f64], noise: f64, rest: usize, seed: u64) -> Record {
         let mut rng = StdRng::seed_from_u64(seed);
-        let syn =
-            crate::data::synthesize(&ModelSpec::FULL, theta, DT, 2001 - rest, noise, &mut rng)
-                .unwrap();
+        let syn = crate::data::synthesize(
+            &crate::model::Model::from(ModelSpec::FULL),
+            theta,
+            DT,
+            2001 - rest,
+            noise,
+            &mut rng,
+        )
+        .unwrap();
         let normal = Normal::new(0.0, syn.sigma).unwrap();
         let mut a: Vec<f64> = (0..rest).map(|_| normal.sample(&mut rng)).collect();
         a.extend_from_slice(syn.record.a());

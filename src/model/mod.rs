@@ -106,45 +106,12 @@ pub trait ForwardModel: Send + Sync {
     }
 }
 
-impl ForwardModel for ModelSpec {
-    fn name(&self) -> String {
-        self.to_string()
-    }
-
-    fn params(&self) -> Vec<ParamSpec> {
-        self.used().map(|p| p.spec()).collect()
-    }
-
-    fn accel_grid_into(
-        &self,
-        theta: &[f64],
-        start: f64,
-        dt: f64,
-        out: &mut [f64],
-    ) -> Result<(), SimError> {
-        let p = self.params_from_slice(theta)?;
-        System::new(self, &p).accel_grid_into(start, dt, out, &SimOptions::default())
-    }
-
-    fn sse_grid(
-        &self,
-        theta: &[f64],
-        start: f64,
-        dt: f64,
-        data: &[f64],
-    ) -> Option<Result<f64, SimError>> {
-        let sse = self
-            .params_from_slice(theta)
-            .map_err(SimError::from)
-            .and_then(|p| System::new(self, &p).sse_grid(start, dt, data, &SimOptions::default()));
-        Some(sse)
-    }
-
+impl ModelSpec {
     /// A tri-linear spring needs `u3 < u0`: released short of its third
     /// branch, it is the bi-linear model with `f2` and `u3` free and
     /// unidentified (a flat ridge of the posterior that traps searches;
     /// model-notes.md). Fit `bilinear` for such a test.
-    fn in_support(&self, theta: &[f64]) -> bool {
+    pub fn in_support(&self, theta: &[f64]) -> bool {
         if self.spring != SpringKind::Trilinear {
             return true;
         }

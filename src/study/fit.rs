@@ -568,13 +568,12 @@ pub fn coverage(
             for v in t.iter_mut() {
                 *v *= 1.0 + spread * (2.0 * rng.random::<f64>() - 1.0);
             }
-            if spec.params_from_slice(&t).is_ok()
-                && crate::model::ForwardModel::in_support(&spec, &t)
-            {
+            if spec.params_from_slice(&t).is_ok() && spec.in_support(&t) {
                 break t;
             }
         };
-        let syn = crate::data::synthesize(&spec, &truth, 0.005, 2001, noise, &mut rng)?;
+        let syn =
+            crate::data::synthesize(&Model::from(spec), &truth, 0.005, 2001, noise, &mut rng)?;
         let data = syn.record.aligned(None).expect("a synthetic record aligns");
         let mut opts = options.clone();
         opts.seed = rng.random();

@@ -16,7 +16,15 @@ fn record(dir: &Path) {
     let spec = ModelSpec::FULL;
     let truth = Params::table_8_1(7).unwrap().to_theta(&spec);
     let mut rng = StdRng::seed_from_u64(77);
-    let syn = synthesize(&spec, &truth, 0.005, 2001, 0.015, &mut rng).unwrap();
+    let syn = synthesize(
+        &hbis::model::Model::from(spec),
+        &truth,
+        0.005,
+        2001,
+        0.015,
+        &mut rng,
+    )
+    .unwrap();
     std::fs::write(dir.join("rec.csv"), syn.record.to_csv()).unwrap();
 }
 
@@ -86,7 +94,8 @@ fn held_record(dir: &Path) {
     let spec = ModelSpec::FULL;
     let truth = Params::table_8_1(7).unwrap().to_theta(&spec);
     let mut clean = vec![0.0; 2001];
-    spec.accel_grid_into(&truth, 0.0023, 0.005, &mut clean)
+    hbis::model::Model::from(spec)
+        .accel_grid_into(&truth, 0.0023, 0.005, &mut clean)
         .unwrap();
     let peak = clean.iter().fold(0.0f64, |m, a| m.max(a.abs()));
     let noise = Normal::new(0.0, 0.015 * peak).unwrap();

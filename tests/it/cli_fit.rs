@@ -17,7 +17,15 @@ fn record(dir: &Path) {
     let spec = ModelSpec::FULL;
     let truth = Params::table_8_1(5).unwrap().to_theta(&spec);
     let mut rng = StdRng::seed_from_u64(9);
-    let syn = synthesize(&spec, &truth, 0.005, 2001, 0.015, &mut rng).unwrap();
+    let syn = synthesize(
+        &hbis::model::Model::from(spec),
+        &truth,
+        0.005,
+        2001,
+        0.015,
+        &mut rng,
+    )
+    .unwrap();
     let mut text = String::from("t,a\n");
     for i in 0..80 {
         text.push_str(&format!(

@@ -22,7 +22,15 @@ fn record(dir: &Path) {
     let spec = ModelSpec::FULL;
     let truth = Params::table_8_1(5).unwrap().to_theta(&spec);
     let mut rng = StdRng::seed_from_u64(3);
-    let syn = synthesize(&spec, &truth, 0.005, 1201, 0.015, &mut rng).unwrap();
+    let syn = synthesize(
+        &hbis::model::Model::from(spec),
+        &truth,
+        0.005,
+        1201,
+        0.015,
+        &mut rng,
+    )
+    .unwrap();
     std::fs::write(dir.join("rec.csv"), syn.record.to_csv()).unwrap();
 }
 
@@ -420,7 +428,15 @@ fn odd_records_give_an_error_or_a_warning_that_names_the_problem() {
     let spec = ModelSpec::FULL;
     let truth = Params::table_8_1(5).unwrap().to_theta(&spec);
     let mut rng = StdRng::seed_from_u64(21);
-    let syn = synthesize(&spec, &truth, 0.005, 1201, 0.015, &mut rng).unwrap();
+    let syn = synthesize(
+        &hbis::model::Model::from(spec),
+        &truth,
+        0.005,
+        1201,
+        0.015,
+        &mut rng,
+    )
+    .unwrap();
     let (t, a) = (syn.record.t().to_vec(), syn.record.a().to_vec());
     // 0.5 s held before the release, with the same noise level.
     let sd = 0.015 * a.iter().fold(0.0f64, |m, v| m.max(v.abs()));

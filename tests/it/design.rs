@@ -19,7 +19,9 @@ fn record(u0_factor: f64, dt: f64, n: usize, sigma: f64, seed: u64) -> Record {
     let mut truth = Params::table_8_1(5).unwrap().to_theta(&spec);
     truth[0] *= u0_factor;
     let mut clean = vec![0.0; n];
-    spec.accel_into(&truth, dt, &mut clean).unwrap();
+    hbis::model::Model::from(spec)
+        .accel_into(&truth, dt, &mut clean)
+        .unwrap();
     let mut rng = StdRng::seed_from_u64(seed);
     let noise = Normal::new(0.0, sigma).unwrap();
     let a = clean.iter().map(|c| c + noise.sample(&mut rng)).collect();

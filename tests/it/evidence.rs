@@ -29,11 +29,18 @@ fn laplace_evidence_agrees_with_tmcmc() {
         .unwrap()
         .to_theta(&spec);
     let mut rng = StdRng::seed_from_u64(12);
-    let data = synthesize(&spec, &truth, 0.005, 2001, 0.015, &mut rng)
-        .unwrap()
-        .record
-        .aligned(None)
-        .unwrap();
+    let data = synthesize(
+        &hbis::model::Model::from(spec),
+        &truth,
+        0.005,
+        2001,
+        0.015,
+        &mut rng,
+    )
+    .unwrap()
+    .record
+    .aligned(None)
+    .unwrap();
     let model = Model::from(spec);
     let fit = fit_model(
         &model,

@@ -13,7 +13,15 @@ fn report(p: &Params, seed: u64) -> Identifiability {
     let spec = ModelSpec::FULL;
     let truth = p.to_theta(&spec);
     let mut rng = StdRng::seed_from_u64(seed);
-    let syn = synthesize(&spec, &truth, 0.005, 2001, 0.015, &mut rng).unwrap();
+    let syn = synthesize(
+        &hbis::model::Model::from(spec),
+        &truth,
+        0.005,
+        2001,
+        0.015,
+        &mut rng,
+    )
+    .unwrap();
     let options = FitOptions {
         seed,
         ..FitOptions::default()

@@ -18,9 +18,19 @@ fn fit_rate(spec: &str) -> (usize, Vec<String>) {
         let full = Params::table_8_1(TESTS[seed as usize % 5]).unwrap();
         let truth = spec.restrict(&full).unwrap().to_theta(&spec);
         let mut rng = StdRng::seed_from_u64(1000 + seed);
-        let syn = synthesize(&spec, &truth, 0.005, 2001, 0.015, &mut rng).unwrap();
+        let syn = synthesize(
+            &hbis::model::Model::from(spec),
+            &truth,
+            0.005,
+            2001,
+            0.015,
+            &mut rng,
+        )
+        .unwrap();
         let data = syn.record.aligned(None).unwrap();
-        let post = Posterior::with_default_priors(spec, data, Noise::White).unwrap();
+        let post =
+            Posterior::with_default_priors(hbis::model::Model::from(spec), data, Noise::White)
+                .unwrap();
         let floor = post.evaluate(&truth).unwrap().e2;
         let map = find_map(&post, &MapSettings::default(), &mut rng).unwrap();
         if map.eval.e2 <= floor * (1.0 + 1e-9) {

@@ -13,7 +13,9 @@ const DT: f64 = 0.005;
 /// the release at `t = 2.0 + 0.5 - lag`, first sampled `lag` after it.
 fn record(spec: &ModelSpec, truth: &[f64], lag: f64) -> Record {
     let mut post = vec![0.0; 1600];
-    spec.accel_grid_into(truth, lag, DT, &mut post).unwrap();
+    hbis::model::Model::from(*spec)
+        .accel_grid_into(truth, lag, DT, &mut post)
+        .unwrap();
     let (mut t, mut a) = (Vec::new(), Vec::new());
     for i in 0..100 {
         t.push(2.0 + i as f64 * DT);

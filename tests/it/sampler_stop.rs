@@ -15,7 +15,15 @@ fn run(settings: SampleSettings) -> PosteriorSample {
     let spec = ModelSpec::FULL;
     let truth = Params::table_8_1(5).unwrap().to_theta(&spec);
     let mut rng = StdRng::seed_from_u64(5);
-    let syn = synthesize(&spec, &truth, 0.005, 2001, 0.015, &mut rng).unwrap();
+    let syn = synthesize(
+        &hbis::model::Model::from(spec),
+        &truth,
+        0.005,
+        2001,
+        0.015,
+        &mut rng,
+    )
+    .unwrap();
     let options = FitOptions {
         seed: 5,
         sample: Some(settings),
