@@ -284,7 +284,7 @@ pub fn fit_record(
         fit.posterior.data(),
     )?;
     let info = param_info(&model, &names);
-    let ident = identifiability::report(
+    let mut ident = identifiability::report(
         &names,
         &info,
         &summaries,
@@ -294,6 +294,9 @@ pub fn fit_record(
         sigma,
         Some(&segments),
     );
+    if let Some(note) = basins_note(&fit.basins, &names, &ident.weakest) {
+        ident.explanation = format!("{} {note}", ident.explanation);
+    }
     if let Some(target) = options.design_target {
         let w = names.iter().position(|n| n == &ident.weakest).unwrap_or(0);
         let mean: Vec<f64> = summaries.iter().map(|s| s.mean).collect();
@@ -318,6 +321,35 @@ pub fn fit_record(
     fit.identifiability = Some(ident);
     fit.sample = Some(sample);
     Ok(fit)
+}
+
+/// Where the posterior has several basins, the weakest parameter in each
+/// and their shares of the draws: its interval spans them.
+fn basins_note(basins: &[Basin], names: &[String], weakest: &str) -> Option<String> {
+    let k = names.iter().position(|n| n == weakest)?;
+    if basins.len() < 2 {
+        return None;
+    }
+    let each: Vec<String> = basins
+        .iter()
+        .map(|b| {
+            format!(
+                "{weakest} = {:.4e} ({:.0} % of the draws)",
+                b.theta[k],
+                100.0 * b.share.unwrap_or(f64::NAN)
+            )
+        })
+        .collect();
+    Some(format!(
+        "The posterior has {} basins (the MAP search ended in places {} nats of fall apart): {}; its interval spans them.",
+        basins.len(),
+        basins[1..]
+            .iter()
+            .map(|b| format!("{:.0}", b.barrier))
+            .collect::<Vec<_>>()
+            .join(", "),
+        each.join(", ")
+    ))
 }
 
 /// Each parameter's declared scale, unit and meaning (the noise model's

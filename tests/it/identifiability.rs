@@ -59,5 +59,13 @@ fn the_weakest_and_its_explanation_follow_the_record() {
         b.weakest
     );
     assert!(b.explanation.contains("u3"), "{}", b.explanation);
-    assert!(b.explanation.contains("largest swing"), "{}", b.explanation);
+    // Either one basin, whose u3 the largest swing cannot place, or several
+    // readings of the spring (u3 just below the swing, or far below it
+    // with the branches read anew), each sampled, and the explanation
+    // says so with the weakest parameter in each.
+    assert!(
+        b.explanation.contains("largest swing") || b.explanation.contains(" basins (the MAP search"),
+        "{}",
+        b.explanation
+    );
 }
