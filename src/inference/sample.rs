@@ -913,7 +913,18 @@ pub fn sample_posterior<D: LogDensity>(
                 .collect();
             let ensembles = (0..settings.ensembles)
                 .into_par_iter()
-                .map(|e| start(density, &centres, scale, walkers, seed, e))
+                .map(|e| {
+                    // Walkers split between basins far apart may not span
+                    // every dimension well enough to start; the MAP's
+                    // basin alone then (the basins' shares will show it).
+                    start(density, &centres, scale, walkers, seed, e).or_else(|err| {
+                        if centres.len() > 1 {
+                            start(density, &centres[..1], scale, walkers, seed, e)
+                        } else {
+                            Err(err)
+                        }
+                    })
+                })
                 .collect::<Result<Vec<_>, _>>()?;
             (
                 status,

@@ -64,7 +64,8 @@ fn the_weakest_and_its_explanation_follow_the_record() {
     // with the branches read anew), each sampled, and the explanation
     // says so with the weakest parameter in each.
     assert!(
-        b.explanation.contains("largest swing") || b.explanation.contains(" basins (the MAP search"),
+        b.explanation.contains("largest swing")
+            || b.explanation.contains(" basins (the MAP search"),
         "{}",
         b.explanation
     );
