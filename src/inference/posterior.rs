@@ -15,15 +15,15 @@
 //! ```
 //! use hbis::data::synthesize;
 //! use hbis::inference::{Noise, Posterior};
-//! use hbis::model::{ModelSpec, Params};
+//! use hbis::model::{Params, Registry};
 //! use rand::{rngs::StdRng, SeedableRng};
 //!
-//! let spec: ModelSpec = "trilinear+lcfm+viscous".parse()?;
-//! let truth = Params::table_8_1(5).unwrap().to_theta(&spec);
+//! let model = Registry::builtin().parse("trilinear+lcfm+viscous")?;
+//! let truth = model.theta_from_params(&Params::table_8_1(5).unwrap(), &[])?;
 //! let mut rng = StdRng::seed_from_u64(1);
-//! let syn = synthesize(&spec, &truth, 0.005, 2001, 0.015, &mut rng)?;
+//! let syn = synthesize(&model, &truth, 0.005, 2001, 0.015, &mut rng)?;
 //! let data = syn.record.aligned(None)?;
-//! let post = Posterior::with_default_priors(spec, data, Noise::White)?;
+//! let post = Posterior::with_default_priors(model, data, Noise::White)?;
 //! let ev = post.evaluate(&truth)?;
 //! assert!((ev.e2 / syn.noise_floor - 1.0).abs() < 0.1);
 //! # Ok::<(), Box<dyn std::error::Error>>(())

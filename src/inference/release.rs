@@ -25,22 +25,22 @@
 //! use hbis::data::synthesize;
 //! use hbis::inference::release::fit_lag;
 //! use hbis::inference::{Noise, Posterior};
-//! use hbis::model::{ModelSpec, Params};
+//! use hbis::model::{ForwardModel, Model, ModelSpec, Params};
 //! use rand::{rngs::StdRng, SeedableRng};
 //!
 //! // Test 5, sampled 2 ms after the release.
-//! let spec = ModelSpec::FULL;
-//! let truth = Params::table_8_1(5).unwrap().to_theta(&spec);
+//! let model = Model::from(ModelSpec::FULL);
+//! let truth = Params::table_8_1(5).unwrap().to_theta(&ModelSpec::FULL);
 //! let mut rng = StdRng::seed_from_u64(1);
-//! let mut data = synthesize(&spec, &truth, 0.005, 2001, 0.0, &mut rng)
+//! let mut data = synthesize(&model, &truth, 0.005, 2001, 0.0, &mut rng)
 //!     .unwrap()
 //!     .record
 //!     .aligned(None)
 //!     .unwrap();
 //! let mut a = vec![0.0; data.a.len()];
-//! hbis::model::ForwardModel::accel_grid_into(&spec, &truth, 0.002, 0.005, &mut a).unwrap();
+//! model.accel_grid_into(&truth, 0.002, 0.005, &mut a).unwrap();
 //! data.a = a;
-//! let post = Posterior::with_default_priors(spec, data, Noise::White).unwrap();
+//! let post = Posterior::with_default_priors(model, data, Noise::White).unwrap();
 //! let fit = fit_lag(&post, &truth).unwrap();
 //! assert!((fit.lag - 0.002).abs() < 1e-4, "lag {}", fit.lag);
 //! ```
