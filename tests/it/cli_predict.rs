@@ -7,6 +7,10 @@ use bin::{hbis, stderr};
 
 use std::path::Path;
 
+use hbis::model::forced::Excitation;
+use hbis::model::numeric::NumericSystem;
+use hbis::model::{ModelSpec, Params, System};
+
 const TEST5: &str = r#"{"u0": 0.1166, "uy": 0.01167, "uF0": 0.00234, "rF0": 0.00235, "zeta0": 0.02256,
  "f0": 0.53979, "f1": 0.41723, "f2": 0.37477, "u3": 0.08252}"#;
 
@@ -77,8 +81,54 @@ fn one_parameter_set_under_an_at2_motion_and_the_same_in_columns() {
         assert_eq!(s["sd"], 0.0);
     }
     let peak = j["summary"]["peak_displacement"]["mean"].as_f64().unwrap();
+    // The peak computed independently: the numerical engine (Dormand-Prince
+    // at 1e-12) on the same motion, read from the file's own digits.
+    let ag: Vec<f64> = at2()
+        .lines()
+        .skip(4)
+        .flat_map(|l| l.split_whitespace().map(|x| x.parse::<f64>().unwrap()))
+        .map(|g| g * 9.80665)
+        .collect();
+    let ex = Excitation::new(0.01, &ag, 10.0).unwrap();
+    let system = System::new(&ModelSpec::FULL, &Params::table_8_1(5).unwrap());
+    let mut u = Vec::new();
+    let independent = NumericSystem::with_terms(system, &[])
+        .forced(&ex, 1e-12, &mut u)
+        .unwrap()
+        .peak_displacement;
+    assert!((peak - independent).abs() < 1e-6, "{peak} {independent}");
+    // p_exceed against that peak, with capacities just either side of it.
     let p = j["p_exceed_capacity"].as_f64().unwrap();
-    assert_eq!(p, if peak > 0.05 { 1.0 } else { 0.0 });
+    assert_eq!(p, if independent > 0.05 { 1.0 } else { 0.0 });
+    for (capacity, expected) in [(0.999 * independent, 1.0), (1.001 * independent, 0.0)] {
+        let c = capacity.to_string();
+        let o = hbis(
+            d.path(),
+            &[
+                "predict",
+                "--model",
+                "trilinear+lcfm+viscous",
+                "--params",
+                "p.json",
+                "--motion",
+                "gm.AT2",
+                "--capacity",
+                &c,
+                "--tail",
+                "10",
+                "--json",
+                "--out",
+                "pred-c",
+            ],
+        );
+        assert!(o.status.success(), "{}", stderr(&o));
+        let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        assert_eq!(
+            v["p_exceed_capacity"].as_f64(),
+            Some(expected),
+            "capacity {c}"
+        );
+    }
     assert!((j["motion"]["pga"].as_f64().unwrap() - 0.2 * 9.80665).abs() < 1e-3);
     assert!(d.path().join("pred/draws.csv").exists());
 
