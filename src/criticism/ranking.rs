@@ -120,7 +120,11 @@ pub struct RankedCandidate {
     pub delta_bic: f64,
     /// Change of the Laplace log-evidence.
     pub delta_log_evidence: f64,
-    /// Whether it pays for its parameters (BIC lower by more than 10).
+    /// Its refit's raw `e2` over the current model's (not whitened): a
+    /// refit beyond [`raw_e2_limit`] is not supported.
+    pub raw_e2_ratio: f64,
+    /// Whether it pays for its parameters (BIC lower by more than 10) with
+    /// a raw `e2` no worse than the noise explains.
     pub supported: bool,
     /// The residual pattern it explains.
     pub signature: String,
@@ -631,6 +635,8 @@ pub fn rank_candidates(
         let gate = Gate {
             physical_size,
             stands_in,
+            raw_e2_ratio: refit.e2 / fit.e2,
+            raw_e2_limit: raw_e2_limit(fit, data.a.len()),
             delta_bic,
             delta_log_evidence,
             moved_z,
@@ -655,7 +661,8 @@ pub fn rank_candidates(
             delta_log_likelihood: refit.log_likelihood - fit.log_likelihood,
             delta_bic,
             delta_log_evidence,
-            supported: delta_bic < -SUPPORT,
+            raw_e2_ratio: gate.raw_e2_ratio,
+            supported: gate.supported(),
             signature: c.signature.clone(),
             starts: n_starts,
             agreeing,
@@ -775,8 +782,11 @@ fn shrink_of(targets: &[FeatureKind], before: &[Feature], after: &[Feature]) -> 
 ///
 /// ```
 /// use hbis::criticism::ranking::Gate;
-/// let g = Gate { physical_size: Some(4.0), stands_in: None, delta_bic: -40.0, delta_log_evidence: 12.0, moved_z: 6.0, target_before: 3.0, target_after: 1.0 };
+/// let g = Gate { physical_size: Some(4.0), stands_in: None, raw_e2_ratio: 0.9, raw_e2_limit: 1.05, delta_bic: -40.0, delta_log_evidence: 12.0, moved_z: 6.0, target_before: 3.0, target_after: 1.0 };
 /// assert!(g.accepted());
+/// // A BIC gain bought by the noise model while the raw error grows: not supported.
+/// let g2 = Gate { raw_e2_ratio: 180.0, ..g.clone() };
+/// assert!(!g2.supported() && g2.reason(&[]).contains("180.000x the current model's"));
 /// // A parameter that stays at its neutral value: not added.
 /// let g = Gate { moved_z: 1.2, ..g.clone() };
 /// assert!(!g.accepted() && g.reason(&[]).contains("1.2 (profile z)"));
@@ -791,6 +801,10 @@ pub struct Gate {
     pub physical_size: Option<f64>,
     /// Set when it removes a structure it does not target: a period, offset or spectral structure gone while the residual stays coloured.
     pub stands_in: Option<String>,
+    /// Its refit's raw `e2` over the current model's (not whitened).
+    pub raw_e2_ratio: f64,
+    /// The most [`Gate::raw_e2_ratio`] the noise explains ([`raw_e2_limit`]).
+    pub raw_e2_limit: f64,
     /// Change of BIC.
     pub delta_bic: f64,
     /// Change of the Laplace log-evidence.
@@ -804,9 +818,11 @@ pub struct Gate {
 }
 
 impl Gate {
-    /// BIC lower by more than [`SUPPORT`].
+    /// BIC lower by more than [`SUPPORT`], and a raw `e2` no worse than
+    /// the noise explains: an AR(1) noise model must not buy a BIC gain by
+    /// absorbing a misfit into its correlation.
     pub fn supported(&self) -> bool {
-        self.delta_bic < -SUPPORT
+        self.delta_bic < -SUPPORT && self.raw_e2_ratio <= self.raw_e2_limit
     }
     /// Log Bayes factor above [`EVIDENCE`].
     pub fn evidence(&self) -> bool {
@@ -832,10 +848,16 @@ impl Gate {
     pub fn reason(&self, targets: &[FeatureKind]) -> String {
         let names: Vec<String> = targets.iter().map(|&t| kind_name(t)).collect();
         let mut why = Vec::new();
-        if !self.supported() {
+        if self.delta_bic >= -SUPPORT {
             why.push(format!(
                 "BIC changes by {:+.1}, not below -{SUPPORT}",
                 self.delta_bic
+            ));
+        }
+        if self.raw_e2_ratio > self.raw_e2_limit {
+            why.push(format!(
+                "its refit's raw e2 is {:.3}x the current model's, beyond the {:.3}x the noise explains: the noise model absorbs a misfit",
+                self.raw_e2_ratio, self.raw_e2_limit
             ));
         }
         if !self.evidence() {
@@ -886,6 +908,30 @@ impl Gate {
             format!("not added: {}", why.join("; "))
         }
     }
+}
+
+/// Standard errors of the noise's own sum of squares by which a refit's raw
+/// `e2` may exceed the current model's.
+pub const RAW_E2_SE: f64 = 3.0;
+
+/// The most a refit's raw `e2` may be over `fit`'s on `n` samples:
+/// `1 + 3 sqrt(2 / n_eff)`, the sum of squares of `n_eff = n (1 - |rho|) /
+/// (1 + |rho|)` independent noise values varying by `sqrt(2 / n_eff)` of
+/// itself (`rho`: the AR(1) coefficient of `fit`, 0 for white noise).
+///
+/// ```
+/// // 2,001 white-noise samples: 9.5 % above is what noise explains.
+/// let f = 1.0 + 3.0 * (2.0f64 / 2001.0).sqrt();
+/// assert!((f - 1.0948).abs() < 1e-4);
+/// ```
+pub fn raw_e2_limit(fit: &ModelFit, n: usize) -> f64 {
+    let rho = fit
+        .names
+        .iter()
+        .position(|x| x == "rho")
+        .map_or(0.0, |k| fit.theta[k].abs().min(0.999));
+    let n_eff = (n as f64 * (1.0 - rho) / (1.0 + rho)).max(1.0);
+    1.0 + RAW_E2_SE * (2.0 / n_eff).sqrt()
 }
 
 /// A candidate's refit: the candidate, its score, the fit, starts,
