@@ -5,7 +5,7 @@ use std::io::Write;
 use std::path::PathBuf;
 
 use anyhow::{Context, Result};
-use hbis::criticism::{Diagnostics, ModelFit, RankedCandidate, Step};
+use hbis::criticism::{Diagnostics, ModelFit, Move, PathEnd, RankedCandidate, Step};
 use hbis::inference::{MapSettings, Noise};
 use hbis::model::{ForwardModel, Registry};
 use hbis::report::outdir::{InputEntry, OutDir};
@@ -168,6 +168,7 @@ pub fn run_ladder(l: LadderArgs) -> Result<()> {
     let ladder = ladder_steps(&registry, &s, l.max_steps)?;
     let mut err = std::io::stderr().lock();
     print_ladder(&mut err, &ladder.steps)?;
+    print_paths(&mut err, &ladder.report.paths)?;
     super::inputs::print_warnings(&ladder.report.warnings[s.warnings.len()..]);
     let text = criticize::write_ladder(&registry, &ladder, &s, &mut dir)?;
     let start = s.model.name();
@@ -188,12 +189,16 @@ pub fn ladder_steps(registry: &Registry, s: &Setup, max_steps: usize) -> Result<
             Some(c) => format!("adding {}", c.effect),
             None => "no effect added".to_string(),
         };
-        let _ = writeln!(
-            std::io::stderr(),
-            "  fitted {}: e2 = {:.5}; {next}",
-            s.model,
-            s.e2
-        );
+        let mut err = std::io::stderr();
+        for m in s.moves.iter().filter(|m| m.kind != "add") {
+            let _ = writeln!(err, "  {}", move_line(m));
+        }
+        let path = if s.path > 0 {
+            format!(" (path {}, from the first step's runner-up)", s.path)
+        } else {
+            String::new()
+        };
+        let _ = writeln!(err, "  fitted {}{path}: e2 = {:.5}; {next}", s.model, s.e2);
     };
     criticize::ladder(registry, s, &MapSettings::default(), max_steps, &mut report)
         .context("ladder")
@@ -252,6 +257,41 @@ pub fn print_diagnosis(
     Ok(())
 }
 
+/// A removal or swap in words, with its BIC.
+fn move_line(m: &Move) -> String {
+    let what = match &m.replaces {
+        Some(out) => format!("swapped `{out}` for `{}`", m.effect),
+        None => format!(
+            "{} `{}`",
+            if m.kind == "add" { "added" } else { "removed" },
+            m.effect
+        ),
+    };
+    format!(
+        "{what} (BIC {:.1} to {:.1}): {}",
+        m.bic_before, m.bic_after, m.model
+    )
+}
+
+/// Where each path of the search ended.
+pub fn print_paths(out: &mut impl Write, paths: &[PathEnd]) -> Result<()> {
+    if paths.len() < 2 {
+        return Ok(());
+    }
+    for (i, p) in paths.iter().enumerate() {
+        writeln!(
+            out,
+            "path {i} (first {}): ends at {} with BIC {:.1}, e2 {:.5}{}",
+            p.first.as_deref().unwrap_or("-"),
+            p.final_model,
+            p.bic,
+            p.e2,
+            if p.chosen { " (chosen)" } else { "" }
+        )?;
+    }
+    Ok(())
+}
+
 pub fn print_ladder(out: &mut impl Write, steps: &[Step]) -> Result<()> {
     writeln!(
         out,
@@ -268,6 +308,11 @@ pub fn print_ladder(out: &mut impl Write, steps: &[Step]) -> Result<()> {
             s.bic,
             s.log_evidence
         )?;
+    }
+    for (k, s) in steps.iter().enumerate() {
+        for m in s.moves.iter().filter(|m| m.kind != "add") {
+            writeln!(out, "step {k}: {}", move_line(m))?;
+        }
     }
     for (k, s) in steps.iter().enumerate() {
         if let Some(c) = &s.caution {

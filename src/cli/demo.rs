@@ -114,6 +114,7 @@ fn criticize(out: &mut impl Write, dir: &mut OutDir) -> Result<()> {
     let ladder =
         super::criticize::ladder_steps(&registry, &s, hbis::study::criticize::MAX_LADDER_STEPS)?;
     super::criticize::print_ladder(out, &ladder.steps)?;
+    super::criticize::print_paths(out, &ladder.report.paths)?;
     let ladder_dir = dir.path("ladder");
     dir.set_prefix("ladder");
     hbis::study::criticize::write_ladder(&registry, &ladder, &s, dir)?;

@@ -1,5 +1,6 @@
 //! Model criticism: where a fitted model fails, which physical effect is
-//! missing, and the ladder that adds effects until none is supported.
+//! missing, and the ladder: a stepwise search that adds, removes and swaps
+//! effects until no move lowers BIC.
 //!
 //! The effects are the components of a [`Registry`](crate::model::Registry)
 //! (the built-in catalog, [`crate::model::catalog`], plus any a user
@@ -10,10 +11,12 @@ pub mod features;
 pub mod ranking;
 pub mod residuals;
 pub mod sanity;
+pub mod search;
 
 pub use ranking::{
-    adopt, caution, choose_noise, conclusion, diagnose_model, diagnosis_of, fit_model, ladder,
-    ladder_observed, place_release, priors_for, rank_candidates, CriticismError, ModelFit,
-    NoiseChoice, RankedCandidate, Ranking, Step,
+    adopt, caution, choose_noise, conclusion, diagnose_model, diagnosis_of, fit_model,
+    place_release, priors_for, rank_candidates, CriticismError, ModelFit, NoiseChoice,
+    RankedCandidate, Ranking,
 };
 pub use residuals::{diagnose, Diagnostics};
+pub use search::{ladder, ladder_observed, Move, PathEnd, Search, Step};

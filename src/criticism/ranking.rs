@@ -1,5 +1,5 @@
-//! Which catalog effect is missing: screen, refit, compare; and the ladder
-//! that adds the best supported effect until none is.
+//! Which catalog effect is missing: screen, refit, compare (the ladder that
+//! searches over models with these rankings is [`super::search`]).
 //!
 //! For each catalog effect absent from the current model:
 //! - a **score test** at the current MAP (the new effect switched off):
@@ -275,10 +275,51 @@ pub fn caution(ranked: &[RankedCandidate]) -> Option<String> {
     caution_for(&pairs)
 }
 
-/// Uniform priors over the bounds the model's components declare (and
-/// `rho` for AR(1) noise).
-pub fn priors_for(model: &Model, noise: Noise) -> Priors {
-    Posterior::default_priors(model, noise)
+/// The longest correlation time (s) criticism lets the measurement error
+/// have.
+///
+/// Sensor noise is correlated by the data acquisition's anti-alias filter
+/// and the sensor's own dynamics, over milliseconds: the calibration's
+/// sensor chain ([`super::calibration::sensor_noise`]: AR(1) noise with
+/// coefficient 0.5 through a 40 Hz Butterworth filter) has a lag-one
+/// correlation of 0.82 at 200 Hz, a correlation time of 25 ms. A misfit of
+/// the structure's motion (periods of 0.5 s and longer) is correlated over
+/// a tenth of a period and more: at 200 Hz its lag-one correlation is 0.99
+/// and above. With `rho` free up to 0.999, an AR(1) error model whitens
+/// such a misfit away (the whitened residual keeps a thousandth of it) and
+/// buys a BIC gain with a worse fit.
+pub const NOISE_MEMORY_S: f64 = 0.1;
+
+/// The bound on `|rho|` for samples `dt` apart: `exp(-dt / NOISE_MEMORY_S)`.
+///
+/// # Formula
+/// `rho_max = exp(-dt / tau_max)`, the lag-one correlation of an error
+/// with correlation time `tau_max` ([`NOISE_MEMORY_S`]).
+///
+/// ```
+/// use hbis::criticism::ranking::rho_max;
+/// // 200 Hz: 0.951; 1 kHz: 0.990.
+/// assert!((rho_max(0.005) - 0.9512).abs() < 1e-4);
+/// assert!((rho_max(0.001) - 0.9900).abs() < 1e-4);
+/// ```
+pub fn rho_max(dt: f64) -> f64 {
+    (-dt / NOISE_MEMORY_S).exp()
+}
+
+/// Uniform priors over the bounds the model's components declare, and for
+/// AR(1) noise `rho` uniform on `[-rho_max, rho_max]` ([`rho_max`] of the
+/// record's sampling interval `dt`): criticism's error model must not
+/// absorb a misfit of the structure's motion.
+pub fn priors_for(model: &Model, noise: Noise, dt: f64) -> Priors {
+    let layout = Posterior::layout_for(model, noise);
+    let r = rho_max(dt);
+    let bounds: Vec<(f64, f64)> = layout
+        .names()
+        .iter()
+        .zip(layout.bounds())
+        .map(|(n, b)| if n == "rho" { (-r, r) } else { b })
+        .collect();
+    Priors::uniform(layout.names(), &bounds).expect("one bound per name")
 }
 
 /// `data` with a release detected between two samples placed by a fit of
@@ -295,10 +336,11 @@ pub fn place_release(
         return Ok(data);
     }
     let mut rng = StdRng::seed_from_u64(seed);
+    let priors = priors_for(model, Noise::White, data.dt);
     let fit = fit_map(
         model.clone(),
         data,
-        priors_for(model, Noise::White),
+        priors,
         Noise::White,
         settings,
         None,
@@ -309,7 +351,7 @@ pub fn place_release(
 
 /// The release placed again by `model` from parameters `theta` near its
 /// MAP: the record with the new lag, and the parameters that go with it.
-fn replace_release(
+pub(super) fn replace_release(
     model: &Model,
     data: &Aligned,
     theta: &[f64],
@@ -317,7 +359,7 @@ fn replace_release(
     let post = Posterior::new(
         model.clone(),
         data.clone(),
-        priors_for(model, Noise::White),
+        priors_for(model, Noise::White, data.dt),
         Noise::White,
     )?;
     let lagged = crate::inference::release::fit_lag(&post, theta).map_err(PipelineError::from)?;
@@ -352,7 +394,7 @@ fn map_of(
     let fit = fit_map(
         model.clone(),
         data.clone(),
-        priors_for(model, noise),
+        priors_for(model, noise, data.dt),
         noise,
         settings,
         start,
@@ -974,7 +1016,7 @@ fn improve_baseline(
     let post = Posterior::new(
         current.clone(),
         data.clone(),
-        priors_for(current, base.noise),
+        priors_for(current, base.noise, data.dt),
         base.noise,
     )?;
     let mut order: Vec<usize> = (0..refits.len())
@@ -1093,38 +1135,6 @@ fn jacobian(model: &Model, theta: &[f64], accel: &[f64], data: &Aligned) -> nalg
     nalgebra::DMatrix::from_columns(&cols)
 }
 
-/// One rung of the ladder.
-#[derive(Debug, Clone, Serialize)]
-pub struct Step {
-    /// Model after this step.
-    pub model: String,
-    /// Effect added at this step (`None` for the starting model).
-    pub added: Option<String>,
-    /// `e2`.
-    pub e2: f64,
-    /// BIC.
-    pub bic: f64,
-    /// Laplace log-evidence.
-    pub log_evidence: f64,
-    /// Time from the release to the first sample (s) this model was fitted
-    /// with: a release detected between samples is placed again by each
-    /// model of the ladder.
-    pub lag: f64,
-    /// The residual diagnosis of this model.
-    #[serde(skip)]
-    pub diagnosis: Diagnostics,
-    /// The candidates considered after this model, best first.
-    pub candidates: Vec<RankedCandidate>,
-    /// When the best candidate is not told apart from another
-    /// ([`caution`]).
-    pub caution: Option<String>,
-    /// What the step concludes ([`conclusion`]).
-    pub conclusion: String,
-    /// The fit.
-    #[serde(skip)]
-    pub fit: ModelFit,
-}
-
 /// Diagnoses a fit of `model`.
 pub fn diagnosis_of(
     model: &Model,
@@ -1173,7 +1183,8 @@ pub fn adopt(
 }
 
 /// The noise model `--noise auto` picks for a criticism run: the start
-/// model fitted with white and with AR(1) noise, and the lower BIC.
+/// model fitted with white and with AR(1) noise; AR(1) when its BIC is
+/// lower and its raw `e2` no worse than the noise explains.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct NoiseChoice {
     /// The noise model chosen.
@@ -1184,25 +1195,41 @@ pub struct NoiseChoice {
     pub bic_ar1: f64,
     /// The AR(1) fit's lag-one coefficient.
     pub rho: f64,
+    /// The AR(1) fit's raw `e2` over the white fit's.
+    pub raw_e2_ratio: f64,
+    /// The most [`NoiseChoice::raw_e2_ratio`] the noise explains
+    /// ([`raw_e2_limit`] of the white fit).
+    pub raw_e2_limit: f64,
 }
 
 impl NoiseChoice {
     /// One sentence with the numbers.
     pub fn sentence(&self) -> String {
-        format!(
-            "noise model: {} by BIC at the start model (white {:.1}, AR(1) {:.1} with rho = {:.2})",
-            self.chosen.as_str(),
-            self.bic_white,
-            self.bic_ar1,
-            self.rho
-        )
+        let why = if self.bic_ar1 < self.bic_white && self.raw_e2_ratio > self.raw_e2_limit {
+            format!(
+                "white: AR(1) has the lower BIC ({:.1} against {:.1}, rho = {:.2}) only by a fit whose raw e2 is {:.2}x the white fit's, beyond the {:.3}x the noise explains: its correlation absorbs a misfit, not sensor noise",
+                self.bic_ar1, self.bic_white, self.rho, self.raw_e2_ratio, self.raw_e2_limit
+            )
+        } else {
+            format!(
+                "{} by BIC at the start model (white {:.1}, AR(1) {:.1} with rho = {:.2})",
+                self.chosen.as_str(),
+                self.bic_white,
+                self.bic_ar1,
+                self.rho
+            )
+        };
+        format!("noise model: {why}")
     }
 }
 
-/// Fits `model` with white and with AR(1) noise and picks the lower BIC.
-/// The models nest (AR(1) with `rho = 0` is white noise), so each fit
-/// starts from the other's MAP too: a search stuck in a worse basin must
-/// not decide the noise model.
+/// Fits `model` with white and with AR(1) noise and picks AR(1) when its
+/// BIC is lower and its raw `e2` no more than [`raw_e2_limit`] times the
+/// white fit's: a misfitted start model's residual is correlated over the
+/// structure's motion, and an AR(1) fit that whitens it away (its raw
+/// error growing) says nothing about the sensor. The models nest (AR(1)
+/// with `rho = 0` is white noise), so each fit starts from the other's MAP
+/// too: a search stuck in a worse basin must not decide the noise model.
 pub fn choose_noise(
     model: &Model,
     data: &Aligned,
@@ -1216,16 +1243,22 @@ pub fn choose_noise(
         .to_vec();
     let (ar1_fit, ar1) = map_of(model, data, Noise::Ar1, Some(white_theta), settings, seed)?;
     let ar1_theta = ar1_fit.posterior.model_part(&ar1_fit.map.theta).to_vec();
-    let (_, again) = map_of(model, data, Noise::White, Some(ar1_theta), settings, seed)?;
-    let bic_white = white.bic.min(again.bic);
+    let (again_fit, again) = map_of(model, data, Noise::White, Some(ar1_theta), settings, seed)?;
+    let (bic_white, e2_white) = if again.bic < white.bic {
+        (again.bic, again_fit.map.eval.e2)
+    } else {
+        (white.bic, white_fit.map.eval.e2)
+    };
     let rho = ar1_fit
         .posterior
         .noise_part(&ar1_fit.map.theta)
         .first()
         .copied()
         .unwrap_or(0.0);
+    let raw_e2_ratio = ar1_fit.map.eval.e2 / e2_white;
+    let raw_e2_limit = 1.0 + RAW_E2_SE * (2.0 / data.a.len().max(1) as f64).sqrt();
     Ok(NoiseChoice {
-        chosen: if ar1.bic < bic_white {
+        chosen: if ar1.bic < bic_white && raw_e2_ratio <= raw_e2_limit {
             Noise::Ar1
         } else {
             Noise::White
@@ -1233,6 +1266,8 @@ pub fn choose_noise(
         bic_white,
         bic_ar1: ar1.bic,
         rho,
+        raw_e2_ratio,
+        raw_e2_limit,
     })
 }
 
@@ -1252,93 +1287,6 @@ pub fn diagnose_model(
     let ranking = rank_candidates(registry, model, &fit, data, settings, seed.wrapping_add(1))?;
     let diagnosis = diagnosis_of(model, &ranking.current, data)?;
     Ok((ranking.current, diagnosis, ranking.candidates))
-}
-
-/// From `start`: diagnose, add the best supported effect, refit, repeat
-/// until nothing is supported (or `max_steps` effects were added). Step 0
-/// is [`diagnose_model`] with the same seed.
-#[allow(clippy::too_many_arguments)]
-pub fn ladder(
-    registry: &Registry,
-    start: Model,
-    data: &Aligned,
-    noise: Noise,
-    settings: &MapSettings,
-    seed: u64,
-    max_steps: usize,
-) -> Result<Vec<Step>, CriticismError> {
-    ladder_observed(
-        registry,
-        start,
-        data,
-        noise,
-        settings,
-        seed,
-        max_steps,
-        &mut |_| {},
-    )
-}
-
-/// [`ladder`], calling `on_step` with each step as soon as it is done (for
-/// progress reports; the result does not depend on it).
-#[allow(clippy::too_many_arguments)]
-pub fn ladder_observed(
-    registry: &Registry,
-    start: Model,
-    data: &Aligned,
-    noise: Noise,
-    settings: &MapSettings,
-    seed: u64,
-    max_steps: usize,
-    on_step: &mut dyn FnMut(&Step),
-) -> Result<Vec<Step>, CriticismError> {
-    // Seeds of the steps after the first.
-    let mut rng = StdRng::seed_from_u64(seed ^ 0x1ADD_E250);
-    let mut model = start;
-    let mut data = data.clone();
-    let (mut fit, mut diagnosis, mut cands) =
-        diagnose_model(registry, &model, &data, noise, settings, seed)?;
-    let mut added: Option<String> = None;
-    let mut steps = Vec::new();
-    for k in 0..=max_steps {
-        if k > 0 {
-            let ranking = rank_candidates(registry, &model, &fit, &data, settings, rng.random())?;
-            fit = ranking.current;
-            cands = ranking.candidates;
-            diagnosis = diagnosis_of(&model, &fit, &data)?;
-        }
-        let next = cands.iter().find(|c| c.accepted).cloned();
-        steps.push(Step {
-            model: model.name(),
-            added: added.clone(),
-            e2: fit.e2,
-            bic: fit.bic,
-            log_evidence: fit.log_evidence,
-            lag: data.lag,
-            diagnosis: diagnosis.clone(),
-            candidates: cands.clone(),
-            caution: caution(&cands),
-            conclusion: conclusion(&diagnosis, &cands),
-            fit: fit.clone(),
-        });
-        on_step(steps.last().expect("just pushed"));
-        match next {
-            Some(c) if steps.len() <= max_steps => {
-                added = Some(c.effect.clone());
-                fit = adopt(&c, &data, settings, rng.random())?;
-                model = c.extended;
-                if data.lag_detected() {
-                    // Placed by a model without this effect, the release
-                    // may be off: the new model places it again.
-                    let (placed, theta) = replace_release(&model, &data, fit.model_theta(&model))?;
-                    data = placed;
-                    fit = fit_model(&model, &data, noise, Some(theta), settings, rng.random())?;
-                }
-            }
-            _ => break,
-        }
-    }
-    Ok(steps)
 }
 
 #[cfg(test)]

@@ -29,7 +29,7 @@ use thiserror::Error;
 
 use crate::criticism::{
     choose_noise, diagnose_model, ladder_observed, place_release, CriticismError, Diagnostics,
-    ModelFit, NoiseChoice, RankedCandidate, Step,
+    ModelFit, Move, NoiseChoice, PathEnd, RankedCandidate, Step,
 };
 use crate::data::{Aligned, Warning};
 use crate::inference::{MapSettings, Noise};
@@ -302,8 +302,10 @@ pub struct LadderReport {
     pub data: DataInfo,
     /// The last step's model.
     pub final_model: String,
-    /// Every step, the start model first.
+    /// Every step of the chosen path, the start model first.
     pub steps: Vec<LadderStep>,
+    /// Where each search path ended (the chosen one has `chosen`).
+    pub paths: Vec<PathEnd>,
     /// The record's warnings and those of the final model's fit.
     pub warnings: Vec<Warning>,
 }
@@ -315,6 +317,9 @@ pub struct LadderStep {
     pub model: String,
     /// The effect this step added (`None` at the start).
     pub added: Option<String>,
+    /// The moves since the previous step: the addition, then any removal
+    /// or swap of an effect added earlier.
+    pub moves: Vec<Move>,
     /// Normalised squared error at the MAP.
     pub e2: f64,
     /// BIC at the MAP.
@@ -351,7 +356,7 @@ pub fn ladder(
     max_steps: usize,
     on_step: &mut dyn FnMut(&Step),
 ) -> Result<Ladder, CriticizeError> {
-    let steps = ladder_observed(
+    let search = ladder_observed(
         registry,
         s.model.clone(),
         &s.data,
@@ -361,6 +366,7 @@ pub fn ladder(
         max_steps,
         on_step,
     )?;
+    let steps = search.steps;
     let warnings = match steps.last() {
         Some(last) => {
             with_fit_warnings(s.warnings.clone(), &registry.parse(&last.model)?, &last.fit)
@@ -382,6 +388,7 @@ pub fn ladder(
         data: DataInfo::new(&s.source, &data),
         final_model: steps.last().map_or(String::new(), |x| x.model.clone()),
         steps: steps.iter().map(ladder_step).collect(),
+        paths: search.paths,
         warnings,
     };
     Ok(Ladder { report, steps })
@@ -391,6 +398,7 @@ fn ladder_step(s: &Step) -> LadderStep {
     LadderStep {
         model: s.model.clone(),
         added: s.added.clone(),
+        moves: s.moves.clone(),
         e2: s.e2,
         bic: s.bic,
         log_evidence: s.log_evidence,

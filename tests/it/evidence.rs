@@ -21,7 +21,6 @@ const SEEDS: u64 = 3;
 const RUN_SD: f64 = 0.83;
 
 #[test]
-#[ignore = "slow: run by the full suite, cargo test -- --include-ignored (docs/testing.md)"]
 fn laplace_evidence_agrees_with_tmcmc() {
     let spec: ModelSpec = "bilinear+coulomb+viscous".parse().unwrap();
     let truth = spec
@@ -51,10 +50,11 @@ fn laplace_evidence_agrees_with_tmcmc() {
         3,
     )
     .unwrap();
+    let dt = data.dt;
     let post = Posterior::new(
         model.clone(),
         data,
-        priors_for(&model, Noise::White),
+        priors_for(&model, Noise::White, dt),
         Noise::White,
     )
     .unwrap();

@@ -38,4 +38,5 @@ mod paper_checks;
 mod record_props;
 mod release;
 mod sampler_stop;
+mod search;
 mod verdicts;

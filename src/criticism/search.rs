@@ -1,0 +1,572 @@
+//! The ladder: a stepwise search over the registry's models, in both
+//! directions, from the start model and from the runner-up of its first
+//! step.
+//!
+//! # Moves
+//! Every move lowers BIC, so no model is visited twice and the search
+//! ends:
+//! - **add** the best accepted candidate of the current model's ranking
+//!   ([`rank_candidates`], whose gates keep out an effect that stands in
+//!   for another);
+//! - after each addition, **remove** an effect the ladder added earlier
+//!   when the model without it, refitted from the current MAP, has the
+//!   lower BIC: an effect added early can stand in for one added later
+//!   (velocity-dependent friction for viscous damping) and then no longer
+//!   pays for its parameters;
+//! - or **swap** such an effect for another candidate that was accepted
+//!   too at the step that added it, when that lowers BIC: the stand-in
+//!   can still pay for itself while the effect it stood in for, put in its
+//!   place, pays more.
+//!
+//! After an addition the lowest-BIC removal or swap is taken, and they are
+//! tried again until none lowers BIC. The start model's own components are
+//! the user's and are never removed.
+//!
+//! # Paths
+//! When the first step accepts more than one candidate, the runner-up
+//! starts a second path. The ladder ends at the path end with the lowest
+//! BIC and reports every end ([`PathEnd`]). Fits and rankings are cached by
+//! model and release lag, so a model both paths reach is fitted and ranked
+//! once.
+//!
+//! This is stepwise selection by an information criterion (Efroymson 1960;
+//! Burnham & Anderson 2002, sec. 3.4) with the candidate gates of
+//! [`super::ranking`] on every addition. No crate does model search over
+//! this registry, hence the code here.
+
+use std::collections::HashMap;
+
+use rand::rngs::StdRng;
+use rand::{RngExt, SeedableRng};
+use serde::Serialize;
+
+use super::ranking::{
+    adopt, caution, conclusion, diagnose_model, diagnosis_of, fit_model, rank_candidates,
+    replace_release, CriticismError, ModelFit, RankedCandidate,
+};
+use super::residuals::Diagnostics;
+use crate::data::Aligned;
+use crate::inference::{MapSettings, Noise};
+use crate::model::{Component, ForwardModel, Model, Registry};
+
+/// Paths the search follows at most: the best first step and its
+/// runner-up.
+pub const MAX_PATHS: usize = 2;
+
+/// One rung of the ladder.
+#[derive(Debug, Clone, Serialize)]
+pub struct Step {
+    /// Model after this step.
+    pub model: String,
+    /// Effect added at this step (`None` for the starting model).
+    pub added: Option<String>,
+    /// Every move since the previous step, in order: the addition, then
+    /// any removal or swap it made worth while.
+    pub moves: Vec<Move>,
+    /// The search path (0: from the best first step; 1: from its
+    /// runner-up).
+    pub path: usize,
+    /// `e2`.
+    pub e2: f64,
+    /// BIC.
+    pub bic: f64,
+    /// Laplace log-evidence.
+    pub log_evidence: f64,
+    /// Time from the release to the first sample (s) this model was fitted
+    /// with: a release detected between samples is placed again by each
+    /// model of the ladder.
+    pub lag: f64,
+    /// The residual diagnosis of this model.
+    #[serde(skip)]
+    pub diagnosis: Diagnostics,
+    /// The candidates considered after this model, best first.
+    pub candidates: Vec<RankedCandidate>,
+    /// When the best candidate is not told apart from another
+    /// ([`caution`]).
+    pub caution: Option<String>,
+    /// What the step concludes ([`conclusion`]).
+    pub conclusion: String,
+    /// The fit.
+    #[serde(skip)]
+    pub fit: ModelFit,
+}
+
+/// A move of the search, with the BIC it changed.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Move {
+    /// `add`, `remove` or `swap`.
+    pub kind: &'static str,
+    /// The effect added (`add`, `swap`) or removed (`remove`).
+    pub effect: String,
+    /// The effect a swap took out.
+    pub replaces: Option<String>,
+    /// The model after the move.
+    pub model: String,
+    /// BIC before the move.
+    pub bic_before: f64,
+    /// BIC after it (lower).
+    pub bic_after: f64,
+}
+
+/// Where a search path ended.
+#[derive(Debug, Clone, Serialize)]
+pub struct PathEnd {
+    /// The effect its first step added (`None`: nothing was added).
+    pub first: Option<String>,
+    /// The models of its steps, the start model first.
+    pub models: Vec<String>,
+    /// Its last model.
+    pub final_model: String,
+    /// That model's BIC.
+    pub bic: f64,
+    /// And `e2`.
+    pub e2: f64,
+    /// Whether the ladder ends here (the lowest BIC of the ends).
+    pub chosen: bool,
+}
+
+/// A finished search: the chosen path's steps and every path's end.
+#[derive(Debug, Clone)]
+pub struct Search {
+    /// The steps of the path with the lowest final BIC.
+    pub steps: Vec<Step>,
+    /// Every path's end, in the order they were searched.
+    pub paths: Vec<PathEnd>,
+}
+
+/// A model's fit and ranking, cached.
+#[derive(Clone)]
+struct Node {
+    fit: ModelFit,
+    diagnosis: Diagnostics,
+    candidates: Vec<RankedCandidate>,
+}
+
+/// An effect the ladder added, with every candidate accepted at the same
+/// step (the others are what a swap may put in its place).
+#[derive(Clone)]
+struct Added {
+    effect: String,
+    accepted: Vec<RankedCandidate>,
+}
+
+/// Where a path stands.
+#[derive(Clone)]
+struct State {
+    model: Model,
+    fit: ModelFit,
+    data: Aligned,
+    added: Vec<Added>,
+}
+
+/// What the search shares between paths: inputs, caches and the seeds.
+struct Searcher<'a> {
+    registry: &'a Registry,
+    noise: Noise,
+    settings: &'a MapSettings,
+    rng: StdRng,
+    nodes: HashMap<String, Node>,
+    fits: HashMap<String, ModelFit>,
+}
+
+/// The cache key: a model fitted with a release placed elsewhere is
+/// another fit.
+fn key(model: &Model, data: &Aligned) -> String {
+    format!("{}@{:e}", model.name(), data.lag)
+}
+
+impl Searcher<'_> {
+    /// The ranking of `s`'s model (cached): its fit may improve on the
+    /// one given ([`rank_candidates`]).
+    fn node(&mut self, s: &mut State) -> Result<Node, CriticismError> {
+        let k = key(&s.model, &s.data);
+        if let Some(n) = self.nodes.get(&k) {
+            s.fit = n.fit.clone();
+            return Ok(n.clone());
+        }
+        let ranking = rank_candidates(
+            self.registry,
+            &s.model,
+            &s.fit,
+            &s.data,
+            self.settings,
+            self.rng.random(),
+        )?;
+        let node = Node {
+            diagnosis: diagnosis_of(&s.model, &ranking.current, &s.data)?,
+            fit: ranking.current,
+            candidates: ranking.candidates,
+        };
+        s.fit = node.fit.clone();
+        self.nodes.insert(k, node.clone());
+        Ok(node)
+    }
+
+    /// A fit of `model` from `start` (cached by model).
+    fn fit(
+        &mut self,
+        model: &Model,
+        data: &Aligned,
+        start: Vec<f64>,
+    ) -> Result<ModelFit, CriticismError> {
+        let k = key(model, data);
+        if let Some(f) = self.fits.get(&k).or(self.nodes.get(&k).map(|n| &n.fit)) {
+            return Ok(f.clone());
+        }
+        let f = fit_model(
+            model,
+            data,
+            self.noise,
+            Some(start),
+            self.settings,
+            self.rng.random(),
+        )?;
+        self.fits.insert(k, f.clone());
+        Ok(f)
+    }
+
+    /// The release placed again by the new model, when it was detected
+    /// between samples: placed by a model without the latest change, it
+    /// may be off.
+    fn settle(&mut self, s: &mut State) -> Result<(), CriticismError> {
+        if s.data.lag_detected() {
+            let (placed, theta) = replace_release(&s.model, &s.data, s.fit.model_theta(&s.model))?;
+            s.data = placed;
+            s.fit = self.fit(&s.model.clone(), &s.data.clone(), theta)?;
+        }
+        Ok(())
+    }
+
+    /// Adds `c` (accepted at a step whose accepted candidates are
+    /// `accepted`).
+    fn add(
+        &mut self,
+        s: &mut State,
+        c: &RankedCandidate,
+        accepted: &[RankedCandidate],
+    ) -> Result<Move, CriticismError> {
+        let bic_before = s.fit.bic;
+        s.fit = adopt(c, &s.data, self.settings, self.rng.random())?;
+        s.model = c.extended.clone();
+        self.settle(s)?;
+        s.added.push(Added {
+            effect: c.effect.clone(),
+            accepted: accepted.to_vec(),
+        });
+        Ok(Move {
+            kind: "add",
+            effect: c.effect.clone(),
+            replaces: None,
+            model: s.model.name(),
+            bic_before,
+            bic_after: s.fit.bic,
+        })
+    }
+
+    /// The removals and swaps of effects added before the last one, best
+    /// (lowest BIC) first, while one lowers BIC.
+    fn prune(&mut self, s: &mut State, moves: &mut Vec<Move>) -> Result<(), CriticismError> {
+        loop {
+            let mut best: Option<(State, Move)> = None;
+            let last = s.added.len().saturating_sub(1);
+            for i in 0..last {
+                for (next, m) in self.alternatives(s, i)? {
+                    if m.bic_after < best.as_ref().map_or(s.fit.bic, |b| b.1.bic_after) {
+                        best = Some((next, m));
+                    }
+                }
+            }
+            let Some((mut next, m)) = best else {
+                return Ok(());
+            };
+            self.settle(&mut next)?;
+            *s = next;
+            moves.push(m);
+        }
+    }
+
+    /// `s` without its `i`-th added effect, and with it swapped for each
+    /// of that effect's rivals, refitted.
+    fn alternatives(&mut self, s: &State, i: usize) -> Result<Vec<(State, Move)>, CriticismError> {
+        let effect = s.added[i].effect.clone();
+        let Some(reduced) = without(self.registry, &s.model, &effect) else {
+            return Ok(Vec::new());
+        };
+        let start = carried(&reduced, &s.fit, &s.model, &[]);
+        let fit = self.fit(&reduced, &s.data, start)?;
+        let mut added = s.added.clone();
+        let gone = added.remove(i);
+        let mut out = vec![(
+            State {
+                model: reduced.clone(),
+                fit: fit.clone(),
+                data: s.data.clone(),
+                added: added.clone(),
+            },
+            Move {
+                kind: "remove",
+                effect: effect.clone(),
+                replaces: None,
+                model: reduced.name(),
+                bic_before: s.fit.bic,
+                bic_after: fit.bic,
+            },
+        )];
+        let theta = fit.model_theta(&reduced).to_vec();
+        for rival in &gone.accepted {
+            if rival.effect == effect || s.model.has(&rival.effect) {
+                continue;
+            }
+            let Some(c) = self
+                .registry
+                .candidates(&reduced, &theta)
+                .into_iter()
+                .find(|c| c.effect == rival.effect)
+            else {
+                continue;
+            };
+            // The rival's own parameters as its refit had them, the rest
+            // from the current fit.
+            let start = carried(&c.model, &s.fit, &s.model, &[(&rival.fit, &rival.extended)]);
+            let swapped = self.fit(&c.model, &s.data, start)?;
+            let mut added = added.clone();
+            added.insert(
+                i,
+                Added {
+                    effect: rival.effect.clone(),
+                    accepted: gone.accepted.clone(),
+                },
+            );
+            out.push((
+                State {
+                    model: c.model.clone(),
+                    fit: swapped.clone(),
+                    data: s.data.clone(),
+                    added,
+                },
+                Move {
+                    kind: "swap",
+                    effect: rival.effect.clone(),
+                    replaces: Some(effect.clone()),
+                    model: c.model.name(),
+                    bic_before: s.fit.bic,
+                    bic_after: swapped.bic,
+                },
+            ));
+        }
+        Ok(out)
+    }
+
+    /// One path: from `s` (ranked as `node`), `first` added, then the best
+    /// accepted candidate at every step, each addition followed by
+    /// [`Searcher::prune`].
+    #[allow(clippy::too_many_arguments)]
+    fn path(
+        &mut self,
+        index: usize,
+        mut s: State,
+        mut node: Node,
+        first: Option<RankedCandidate>,
+        max_steps: usize,
+        start_step: Step,
+        on_step: &mut dyn FnMut(&Step),
+    ) -> Result<Vec<Step>, CriticismError> {
+        let mut steps = vec![start_step];
+        let mut next = first;
+        for _ in 0..max_steps {
+            let Some(c) = next.take() else {
+                break;
+            };
+            let accepted: Vec<RankedCandidate> = node
+                .candidates
+                .iter()
+                .filter(|c| c.accepted)
+                .cloned()
+                .collect();
+            let mut moves = vec![self.add(&mut s, &c, &accepted)?];
+            self.prune(&mut s, &mut moves)?;
+            node = self.node(&mut s)?;
+            let step = step_of(&s, &node, Some(c.effect.clone()), moves, index);
+            on_step(&step);
+            steps.push(step);
+            next = node.candidates.iter().find(|c| c.accepted).cloned();
+        }
+        Ok(steps)
+    }
+}
+
+/// `model` without `effect`: the law it upgrades back in its slot, or the
+/// component dropped; `None` when the rest is not a model.
+fn without(registry: &Registry, model: &Model, effect: &str) -> Option<Model> {
+    let back = match registry.get(effect)? {
+        Component::Force(f) => f.upgrades().map(str::to_string),
+        Component::Output(_) => None,
+    };
+    let name = model.name();
+    let parts: Vec<&str> = name
+        .split('+')
+        .filter_map(|p| {
+            if p == effect {
+                back.as_deref()
+            } else {
+                Some(p)
+            }
+        })
+        .collect();
+    registry.parse(&parts.join("+")).ok()
+}
+
+/// A start for `model`: each parameter from the first of `sources` that
+/// has it, else from `fit` of `current`, else its neutral value.
+fn carried(
+    model: &Model,
+    fit: &ModelFit,
+    current: &Model,
+    sources: &[(&ModelFit, &Model)],
+) -> Vec<f64> {
+    let now = current.layout();
+    let theta = fit.model_theta(current);
+    model.layout().theta_from(&|p| {
+        sources
+            .iter()
+            .find_map(|(f, m)| m.layout().get(f.model_theta(m), &p.name))
+            .or_else(|| now.get(theta, &p.name))
+            .unwrap_or(p.neutral)
+    })
+}
+
+fn step_of(s: &State, node: &Node, added: Option<String>, moves: Vec<Move>, path: usize) -> Step {
+    Step {
+        model: s.model.name(),
+        added,
+        moves,
+        path,
+        e2: node.fit.e2,
+        bic: node.fit.bic,
+        log_evidence: node.fit.log_evidence,
+        lag: s.data.lag,
+        diagnosis: node.diagnosis.clone(),
+        candidates: node.candidates.clone(),
+        caution: caution(&node.candidates),
+        conclusion: conclusion(&node.diagnosis, &node.candidates),
+        fit: node.fit.clone(),
+    }
+}
+
+/// From `start`: diagnose, add the best supported effect, remove or swap
+/// what it made redundant, refit, repeat until nothing is supported (or
+/// `max_steps` effects were added on a path); the chosen path's steps.
+/// Step 0 is [`diagnose_model`] with the same seed.
+#[allow(clippy::too_many_arguments)]
+pub fn ladder(
+    registry: &Registry,
+    start: Model,
+    data: &Aligned,
+    noise: Noise,
+    settings: &MapSettings,
+    seed: u64,
+    max_steps: usize,
+) -> Result<Vec<Step>, CriticismError> {
+    Ok(ladder_observed(
+        registry,
+        start,
+        data,
+        noise,
+        settings,
+        seed,
+        max_steps,
+        &mut |_| {},
+    )?
+    .steps)
+}
+
+/// The whole search ([`ladder`] with every path's end), calling `on_step`
+/// with each step of every path as soon as it is done (for progress
+/// reports; the result does not depend on it).
+#[allow(clippy::too_many_arguments)]
+pub fn ladder_observed(
+    registry: &Registry,
+    start: Model,
+    data: &Aligned,
+    noise: Noise,
+    settings: &MapSettings,
+    seed: u64,
+    max_steps: usize,
+    on_step: &mut dyn FnMut(&Step),
+) -> Result<Search, CriticismError> {
+    let (fit, diagnosis, candidates) =
+        diagnose_model(registry, &start, data, noise, settings, seed)?;
+    let node = Node {
+        fit: fit.clone(),
+        diagnosis,
+        candidates,
+    };
+    let s = State {
+        model: start,
+        fit,
+        data: data.clone(),
+        added: Vec::new(),
+    };
+    let mut searcher = Searcher {
+        registry,
+        noise,
+        settings,
+        // Seeds of the fits after the first step.
+        rng: StdRng::seed_from_u64(seed ^ 0x1ADD_E250),
+        nodes: HashMap::from([(key(&s.model, &s.data), node.clone())]),
+        fits: HashMap::new(),
+    };
+    let first = step_of(&s, &node, None, Vec::new(), 0);
+    on_step(&first);
+    let mut firsts: Vec<Option<RankedCandidate>> = node
+        .candidates
+        .iter()
+        .filter(|c| c.accepted)
+        .take(MAX_PATHS)
+        .cloned()
+        .map(Some)
+        .collect();
+    if firsts.is_empty() {
+        firsts.push(None);
+    }
+    let mut paths = Vec::new();
+    for (i, c) in firsts.into_iter().enumerate() {
+        let mut start_step = first.clone();
+        start_step.path = i;
+        let steps = searcher.path(
+            i,
+            s.clone(),
+            node.clone(),
+            c,
+            max_steps,
+            start_step,
+            on_step,
+        )?;
+        paths.push(steps);
+    }
+    let chosen = (0..paths.len())
+        .min_by(|&a, &b| {
+            let bic = |k: usize| paths[k].last().map_or(f64::INFINITY, |x| x.bic);
+            bic(a).total_cmp(&bic(b))
+        })
+        .unwrap_or(0);
+    let ends = paths
+        .iter()
+        .enumerate()
+        .map(|(i, p)| {
+            let last = p.last().expect("a path has its start step");
+            PathEnd {
+                first: p.get(1).and_then(|x| x.added.clone()),
+                models: p.iter().map(|x| x.model.clone()).collect(),
+                final_model: last.model.clone(),
+                bic: last.bic,
+                e2: last.e2,
+                chosen: i == chosen,
+            }
+        })
+        .collect();
+    Ok(Search {
+        steps: paths.swap_remove(chosen),
+        paths: ends,
+    })
+}
