@@ -228,7 +228,6 @@ fn bad_models_and_records_exit_2() {
 /// --max-steps 0`, same seed, report identical numbers, noise choice and
 /// conclusion.
 #[test]
-#[ignore = "slow: run by the full suite, cargo test -- --include-ignored (docs/testing.md)"]
 fn diagnose_and_the_ladder_agree_on_a_coloured_record() {
     use hbis::criticism::calibration::sensor_noise;
     use hbis::model::{ForwardModel, Model};

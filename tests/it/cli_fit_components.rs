@@ -14,7 +14,6 @@ use rand::{rngs::StdRng, SeedableRng};
 const MODEL: &str = "trilinear+lcfm+viscous+velocity-friction+offset";
 
 #[test]
-#[ignore = "slow: run by the full suite, cargo test -- --include-ignored (docs/testing.md)"]
 fn fit_samples_a_model_with_velocity_friction_and_an_offset() {
     let dir = tempfile::tempdir().unwrap();
     let model = Model::parse(MODEL).unwrap();

@@ -211,7 +211,6 @@ fn hidden(h: Hidden) {
 
 /// A stiffness that falls by 10-25 % over the test shows at 1.5 % noise.
 #[test]
-#[ignore = "slow: run by the full suite, cargo test -- --include-ignored (docs/testing.md)"]
 fn hidden_stiffness_degradation_is_found() {
     hidden(Hidden {
         effect: "degradation",
@@ -226,7 +225,6 @@ fn hidden_stiffness_degradation_is_found() {
 /// shifted release displacement absorbs (docs/components.md): it shows at
 /// 1.5 % noise only when large and the friction is strong (Tests 7, 8).
 #[test]
-#[ignore = "slow: run by the full suite, cargo test -- --include-ignored (docs/testing.md)"]
 fn hidden_asymmetric_friction_is_found() {
     hidden(Hidden {
         effect: "asymmetric-friction",
@@ -244,7 +242,6 @@ fn hidden_asymmetric_friction_is_found() {
 /// amplitude (`lcfm`) in a free vibration; beyond `lcfm` it shows only in
 /// a quiet record (0.3 % noise).
 #[test]
-#[ignore = "slow: run by the full suite, cargo test -- --include-ignored (docs/testing.md)"]
 fn hidden_friction_decay_is_found() {
     hidden(Hidden {
         effect: "friction-decay",
@@ -293,7 +290,6 @@ fn a_users_force_component_is_ranked_first_and_accepted() {
 /// from a model without it, every catalog effect a candidate, adds it
 /// first, reaches the noise floor and adds nothing after it.
 #[test]
-#[ignore = "slow: run by the full suite, cargo test -- --include-ignored (docs/testing.md)"]
 fn a_users_force_component_is_added_by_the_ladder() {
     let (registry, data, floor) = custom_force_effect::setup(5).unwrap();
     let start = Model::parse("trilinear+lcfm+viscous").unwrap();

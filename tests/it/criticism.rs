@@ -90,26 +90,22 @@ fn hidden_in(
 }
 
 #[test]
-#[ignore = "slow: run by the full suite, cargo test -- --include-ignored (docs/testing.md)"]
 fn hidden_trilinear_branch_is_found() {
     hidden("trilinear", "bilinear+lcfm+viscous", 3, None);
 }
 
 #[test]
-#[ignore = "slow: run by the full suite, cargo test -- --include-ignored (docs/testing.md)"]
 fn hidden_amplitude_dependent_friction_is_found() {
     // Test 8 has the largest friction slope of Table 8.1 (rF0 = -0.029).
     hidden("lcfm", "trilinear+coulomb+viscous", 8, None);
 }
 
 #[test]
-#[ignore = "slow: run by the full suite, cargo test -- --include-ignored (docs/testing.md)"]
 fn hidden_viscous_damping_is_found() {
     hidden("viscous", "trilinear+lcfm", 7, None);
 }
 
 #[test]
-#[ignore = "slow: run by the full suite, cargo test -- --include-ignored (docs/testing.md)"]
 fn hidden_accelerometer_offset_is_found() {
     hidden("offset", "trilinear+lcfm+viscous", 5, Some(0.02));
 }
@@ -143,7 +139,6 @@ fn hidden_velocity_dependent_friction_is_found() {
 /// absorbs it into `uF0`, `rF0` and `zeta0` and fits within 1 % of the
 /// noise floor (measured: 0.17 %), so no effect is accepted.
 #[test]
-#[ignore = "slow: run by the full suite, cargo test -- --include-ignored (docs/testing.md)"]
 fn velocity_dependent_friction_away_from_the_warm_start_is_absorbed_and_not_claimed() {
     let model = Model::parse("trilinear+lcfm+viscous+velocity-friction").unwrap();
     let truth = model
@@ -175,7 +170,6 @@ fn velocity_dependent_friction_away_from_the_warm_start_is_absorbed_and_not_clai
 }
 
 #[test]
-#[ignore = "slow: run by the full suite, cargo test -- --include-ignored (docs/testing.md)"]
 fn ladder_from_bilinear_coulomb_recovers_the_full_model() {
     let spec = ModelSpec::FULL;
     let truth = Params::table_8_1(8).unwrap().to_theta(&spec);

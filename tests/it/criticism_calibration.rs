@@ -21,7 +21,6 @@ fn hidden(name: &str) -> Kind {
 }
 
 #[test]
-#[ignore = "slow: run by the full suite, cargo test -- --include-ignored (docs/testing.md)"]
 fn few_false_discoveries_and_hidden_effects_ranked_first() {
     let kinds = [
         Kind::NullWhite,
@@ -83,7 +82,6 @@ fn few_false_discoveries_and_hidden_effects_ranked_first() {
 /// numerical baseline alone; -95 when only the best candidate's part is
 /// refitted, which led to a worse fit).
 #[test]
-#[ignore = "slow: run by the full suite, cargo test -- --include-ignored (docs/testing.md)"]
 fn a_candidate_that_only_finds_a_better_basin_is_not_added() {
     use hbis::criticism::calibration::criticise;
     let registry = Registry::builtin();

@@ -59,15 +59,6 @@ macro_rules! family_test {
             family($spec);
         }
     };
-    // The costlier families run in the full suite only (docs/testing.md);
-    // the fast suite keeps the full model and the cheap families.
-    ($name:ident, $spec:expr, slow) => {
-        #[test]
-        #[ignore = "slow: run by the full suite, cargo test -- --include-ignored (docs/testing.md)"]
-        fn $name() {
-            family($spec);
-        }
-    };
 }
 
 fn family(spec: &str) {
@@ -86,13 +77,13 @@ family_test!(linear_lcfm_none, "linear+lcfm+none");
 family_test!(linear_lcfm_viscous, "linear+lcfm+viscous");
 family_test!(bilinear_none_none, "bilinear+none+none");
 family_test!(bilinear_none_viscous, "bilinear+none+viscous");
-family_test!(bilinear_coulomb_none, "bilinear+coulomb+none", slow);
-family_test!(bilinear_coulomb_viscous, "bilinear+coulomb+viscous", slow);
-family_test!(bilinear_lcfm_none, "bilinear+lcfm+none", slow);
-family_test!(bilinear_lcfm_viscous, "bilinear+lcfm+viscous", slow);
-family_test!(trilinear_none_none, "trilinear+none+none", slow);
-family_test!(trilinear_none_viscous, "trilinear+none+viscous", slow);
-family_test!(trilinear_coulomb_none, "trilinear+coulomb+none", slow);
-family_test!(trilinear_coulomb_viscous, "trilinear+coulomb+viscous", slow);
-family_test!(trilinear_lcfm_none, "trilinear+lcfm+none", slow);
+family_test!(bilinear_coulomb_none, "bilinear+coulomb+none");
+family_test!(bilinear_coulomb_viscous, "bilinear+coulomb+viscous");
+family_test!(bilinear_lcfm_none, "bilinear+lcfm+none");
+family_test!(bilinear_lcfm_viscous, "bilinear+lcfm+viscous");
+family_test!(trilinear_none_none, "trilinear+none+none");
+family_test!(trilinear_none_viscous, "trilinear+none+viscous");
+family_test!(trilinear_coulomb_none, "trilinear+coulomb+none");
+family_test!(trilinear_coulomb_viscous, "trilinear+coulomb+viscous");
+family_test!(trilinear_lcfm_none, "trilinear+lcfm+none");
 family_test!(trilinear_lcfm_viscous, "trilinear+lcfm+viscous");
