@@ -8,11 +8,13 @@
 
 pub mod calibration;
 pub mod features;
+pub mod missing_form;
 pub mod ranking;
 pub mod residuals;
 pub mod sanity;
 pub mod search;
 
+pub use missing_form::{missing_form, FormSeries, MissingForm, Term};
 pub use ranking::{
     adopt, caution, choose_noise, conclusion, diagnose_model, diagnosis_of, fit_model,
     place_release, priors_for, rank_candidates, CriticismError, ModelFit, NoiseChoice,

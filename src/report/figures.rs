@@ -12,6 +12,7 @@ use plotters::coord::Shift;
 use plotters::prelude::*;
 use thiserror::Error;
 
+use crate::criticism::FormSeries;
 use crate::model::{PhaseKind, Response, Sample, SimError};
 
 /// Draws with `$draw(area, args...)` on a PNG or SVG backend by `$ext`,
@@ -803,6 +804,85 @@ fn draw_ladder<DB: DrawingBackend>(
                     PathElement::new([(x, y), (x + 20, y)], orange.stroke_width(2))
                 });
             legend(&mut chart)?;
+        }
+    }
+    root.present().map_err(e)
+}
+
+/// The form of what is missing: the residual force per unit mass (grey
+/// dots) and the force the selected terms describe (red), against time,
+/// displacement and velocity.
+pub fn missing_form_figure(
+    path: &Path,
+    series: &FormSeries,
+    title: &str,
+) -> Result<(), FigureError> {
+    let ext = checked_extension(path)?;
+    render!(path, &ext, (1400, 1000), draw_missing_form(series, title))
+}
+
+fn draw_missing_form<DB: DrawingBackend>(
+    root: DrawingArea<DB, Shift>,
+    series: &FormSeries,
+    title: &str,
+) -> Result<(), String> {
+    let (t, u, v) = (&series.t, &series.u, &series.v);
+    let (r, f) = (&series.residual, &series.described);
+    let e = |x: DrawingAreaErrorKind<DB::ErrorType>| x.to_string();
+    root.fill(&WHITE).map_err(e)?;
+    let root = root.titled(title, (FONT, 24)).map_err(e)?;
+    let (top, bottom) = root.split_vertically(root.dim_in_pixel().1 / 2);
+    let (left, right) = bottom.split_horizontally(bottom.dim_in_pixel().0 / 2);
+    let ys = range(r.iter().chain(f).copied());
+    let red = RGBColor(214, 39, 40);
+    let grey = RGBColor(150, 150, 150);
+    for (area, x, name, line) in [
+        (&top, t, "time since release (s)", true),
+        (&left, u, "displacement u (m)", false),
+        (&right, v, "velocity v (m/s)", false),
+    ] {
+        let mut chart = ChartBuilder::on(area)
+            .margin(20)
+            .x_label_area_size(45)
+            .y_label_area_size(90)
+            .build_cartesian_2d(range(x.iter().copied()), ys.clone())
+            .map_err(e)?;
+        chart
+            .configure_mesh()
+            .x_desc(name)
+            .y_desc("force per unit mass (m/s^2)")
+            .x_label_formatter(&tick)
+            .y_label_formatter(&tick)
+            .label_style((FONT, 14))
+            .axis_desc_style((FONT, 16))
+            .draw()
+            .map_err(e)?;
+        chart
+            .draw_series(
+                x.iter()
+                    .zip(r)
+                    .map(|(a, b)| Circle::new((*a, *b), 1, grey.filled())),
+            )
+            .map_err(e)?
+            .label("residual")
+            .legend(move |(x, y)| Circle::new((x + 10, y), 3, grey.filled()));
+        let described = chart.draw_series(
+            x.iter()
+                .zip(f)
+                .map(|(a, b)| Circle::new((*a, *b), 1, red.filled())),
+        );
+        if line {
+            chart
+                .draw_series(LineSeries::new(
+                    x.iter().zip(f).map(|(a, b)| (*a, *b)),
+                    red.stroke_width(2),
+                ))
+                .map_err(e)?
+                .label("described by the terms")
+                .legend(move |(x, y)| PathElement::new([(x, y), (x + 20, y)], red.stroke_width(2)));
+            legend(&mut chart)?;
+        } else {
+            described.map_err(e)?;
         }
     }
     root.present().map_err(e)

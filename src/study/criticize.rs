@@ -28,8 +28,8 @@ use serde::Serialize;
 use thiserror::Error;
 
 use crate::criticism::{
-    choose_noise, diagnose_model, ladder_observed, place_release, CriticismError, Diagnostics,
-    ModelFit, Move, NoiseChoice, PathEnd, RankedCandidate, Step,
+    choose_noise, diagnose_model, ladder_observed, missing_form, place_release, CriticismError,
+    Diagnostics, MissingForm, ModelFit, Move, NoiseChoice, PathEnd, RankedCandidate, Step,
 };
 use crate::data::{Aligned, Warning};
 use crate::inference::{MapSettings, Noise};
@@ -178,6 +178,8 @@ pub struct DiagnosisReport {
     pub residual: Diagnostics,
     /// The residual's verdict.
     pub verdict: String,
+    /// The form of what is missing ([`crate::criticism::missing_form`]).
+    pub missing_form: MissingForm,
     /// The record's and the fit's warnings.
     pub warnings: Vec<Warning>,
 }
@@ -219,6 +221,7 @@ pub fn diagnose(
         caution: crate::criticism::caution(&candidates),
         conclusion: crate::criticism::conclusion(&residual, &candidates),
         verdict: residual.verdict.clone(),
+        missing_form: missing_form(&s.model, &fit, &s.data)?,
         warnings: with_fit_warnings(s.warnings.clone(), &s.model, &fit),
         candidates,
         residual,
@@ -264,6 +267,21 @@ pub fn write_diagnosis(
                 .to_string(),
         ));
     }
+    #[cfg(feature = "figures")]
+    if let Some(f) = &report.missing_form.series {
+        let draw = |tmp: &std::path::Path| {
+            crate::report::figures::missing_form_figure(
+                tmp,
+                f,
+                &format!("{name}: the residual force and what the missing-form terms describe"),
+            )
+        };
+        out.write_with("missing-form.png", draw)?;
+        svgs.push((
+            crate::report::figures::svg_text(draw)?,
+            "The residual force per unit mass (grey) and the part the missing-form terms describe (red), against time, displacement and velocity.".to_string(),
+        ));
+    }
     let noise_choice = report.noise_choice.as_ref().map(|c| c.sentence());
     let info = CriticismInfo {
         source: &report.data.source,
@@ -306,6 +324,9 @@ pub struct LadderReport {
     pub steps: Vec<LadderStep>,
     /// Where each search path ended (the chosen one has `chosen`).
     pub paths: Vec<PathEnd>,
+    /// The form of what the final model misses
+    /// ([`crate::criticism::missing_form`]).
+    pub missing_form: MissingForm,
     /// The record's warnings and those of the final model's fit.
     pub warnings: Vec<Warning>,
 }
@@ -377,6 +398,10 @@ pub fn ladder(
         .data
         .clone()
         .with_lag(steps.last().map_or(s.data.lag, |x| x.lag));
+    let missing = match steps.last() {
+        Some(last) => missing_form(&registry.parse(&last.model)?, &last.fit, &data)?,
+        None => MissingForm::none(),
+    };
     let report = LadderReport {
         hbis_version: env!("CARGO_PKG_VERSION").to_string(),
         model: s.model.name(),
@@ -389,6 +414,7 @@ pub fn ladder(
         final_model: steps.last().map_or(String::new(), |x| x.model.clone()),
         steps: steps.iter().map(ladder_step).collect(),
         paths: search.paths,
+        missing_form: missing,
         warnings,
     };
     Ok(Ladder { report, steps })

@@ -32,6 +32,7 @@ mod map_second_search;
 mod map_synthetic;
 mod memory;
 mod memory_fit;
+mod missing_form;
 mod model_props;
 mod numeric_engine;
 mod paper_checks;

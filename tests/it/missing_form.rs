@@ -1,0 +1,97 @@
+//! The form of what is missing: on a record with a viscoelastic rubber (a
+//! Maxwell element, which the default catalog withholds) no catalog effect
+//! is accepted, `missing_form` names a memory term with the element's time
+//! constant, and its effect file, fitted, reaches the noise floor; on a
+//! record with nothing missing it names no term.
+
+use std::sync::Arc;
+
+use hbis::criticism::{diagnose_model, fit_model, missing_form};
+use hbis::data::{synthesize, Aligned};
+use hbis::inference::{MapSettings, Noise};
+use hbis::model::effect_file::FileEffect;
+use hbis::model::{ForwardModel, Model, Params, Registry};
+use rand::{rngs::StdRng, SeedableRng};
+
+/// A 10 s, 200 Hz record of `model` at Table 8.1 row 5 plus `extra`, with
+/// 1.5 % noise, and its noise floor (the truth's `e2` on it).
+fn record(model: &str, extra: &[(&str, f64)], seed: u64) -> (Aligned, f64) {
+    let model = Model::parse(model).unwrap();
+    let truth = model
+        .theta_from_params(&Params::table_8_1(5).unwrap(), extra)
+        .unwrap();
+    let mut rng = StdRng::seed_from_u64(seed);
+    let data = synthesize(&model, &truth, 0.005, 2001, 0.015, &mut rng)
+        .unwrap()
+        .record
+        .aligned(None)
+        .unwrap();
+    let mut a = vec![0.0; data.a.len()];
+    model.accel_into(&truth, data.dt, &mut a).unwrap();
+    let sse: f64 = data.a.iter().zip(&a).map(|(x, m)| (x - m).powi(2)).sum();
+    (data.clone(), sse / data.energy())
+}
+
+#[test]
+fn a_viscoelastic_rubber_is_described_as_a_memory_force() {
+    let tau = 0.3;
+    let (data, floor) = record(
+        "trilinear+lcfm+viscous+maxwell",
+        &[("r_m", 0.15), ("tau_m", tau)],
+        11,
+    );
+    let start = Model::parse("trilinear+lcfm+viscous").unwrap();
+    let settings = MapSettings::default();
+    let (fit, _, ranked) = diagnose_model(
+        &Registry::builtin(),
+        &start,
+        &data,
+        Noise::White,
+        &settings,
+        1,
+    )
+    .unwrap();
+    println!(
+        "record seed 11, seed 1: start e2 {:.5}, floor {floor:.5}",
+        fit.e2
+    );
+    for c in &ranked {
+        println!("  {} dBIC {:+.1}: {}", c.effect, c.delta_bic, c.reason);
+    }
+    assert!(ranked.iter().all(|c| !c.accepted), "a catalog stand-in");
+    let form = missing_form(&start, &fit, &data).unwrap();
+    println!("{:?}", form.terms);
+    let first = &form.terms[0];
+    assert_eq!(first.kind, "memory");
+    let found = first.time_constant_s.unwrap();
+    assert!((found / tau - 1.0).abs() <= 0.3, "time constant {found}");
+    // Loaded back as a user would (`--effects`), fitted from scratch.
+    let effect = FileEffect::from_toml(form.effect_file.as_ref().unwrap(), "missing.toml").unwrap();
+    let extended = start.with_force(Arc::new(effect));
+    let refit = fit_model(&extended, &data, Noise::White, None, &settings, 2).unwrap();
+    println!(
+        "with the effect file: e2 {:.5} ({:.3} of the floor)",
+        refit.e2,
+        refit.e2 / floor
+    );
+    assert!(refit.e2 <= 1.03 * floor);
+}
+
+#[test]
+fn nothing_missing_names_no_term() {
+    let (data, _) = record("trilinear+lcfm+viscous", &[], 7);
+    let model = Model::parse("trilinear+lcfm+viscous").unwrap();
+    let fit = fit_model(
+        &model,
+        &data,
+        Noise::White,
+        None,
+        &MapSettings::default(),
+        1,
+    )
+    .unwrap();
+    let form = missing_form(&model, &fit, &data).unwrap();
+    println!("record seed 7, seed 1: {:?}", form.terms);
+    assert!(form.terms.is_empty());
+    assert!(form.effect_file.is_none());
+}
