@@ -1366,6 +1366,59 @@ pub fn diagnose_model(
 
 #[cfg(test)]
 mod tests {
+
+    #[test]
+    fn a_refit_that_moves_a_shared_parameter_onto_its_bound_pins_it() {
+        let current = Model::parse("trilinear+lcfm+viscous").unwrap();
+        let extended = Model::parse("trilinear+lcfm+viscous+offset").unwrap();
+        let now = current
+            .theta_from_params(&crate::model::Params::table_8_1(5).unwrap(), &[])
+            .unwrap();
+        let mut refit = now.clone();
+        refit.push(0.01);
+        assert_eq!(pinned(&current, &now, &extended, &refit), None);
+        // rF0's bounds are [-0.1, 0.1].
+        let k = current
+            .param_names()
+            .iter()
+            .position(|n| n == "rF0")
+            .unwrap();
+        refit[k] = 0.1;
+        let why = pinned(&current, &now, &extended, &refit).unwrap();
+        assert!(why.contains("`rF0`"), "{why}");
+        // Already there before: not the candidate's doing.
+        let mut before = now.clone();
+        before[k] = 0.1;
+        assert_eq!(pinned(&current, &before, &extended, &refit), None);
+    }
+
+    #[test]
+    fn a_structure_that_appears_where_the_candidate_does_not_aim_is_worse() {
+        use crate::criticism::features::Feature;
+        let f = |kind, significant| Feature {
+            kind,
+            magnitude: 1.0,
+            z: 0.0,
+            significant,
+            sentence: String::new(),
+        };
+        let before = [
+            f(FeatureKind::Offset, false),
+            f(FeatureKind::JumpSize, false),
+        ];
+        let after = [f(FeatureKind::Offset, true), f(FeatureKind::JumpSize, true)];
+        // It targets the jumps: the new offset counts against it.
+        let why = worsened(&[FeatureKind::JumpSize], &before, &after).unwrap();
+        assert!(why.contains("offset"), "{why}");
+        assert_eq!(
+            worsened(
+                &[FeatureKind::JumpSize, FeatureKind::Offset],
+                &before,
+                &after
+            ),
+            None
+        );
+    }
     use super::*;
     use crate::data::synthesize;
     use crate::model::{ForceComponent, Forces, Kinematics, ParamSpec, Params};
