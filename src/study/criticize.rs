@@ -178,7 +178,7 @@ pub struct DiagnosisReport {
     pub residual: Diagnostics,
     /// The residual's verdict.
     pub verdict: String,
-    /// The form of what is missing ([`crate::criticism::missing_form`]).
+    /// The form of what is missing ([`mod@crate::criticism::missing_form`]).
     pub missing_form: MissingForm,
     /// The record's and the fit's warnings.
     pub warnings: Vec<Warning>,
@@ -325,7 +325,7 @@ pub struct LadderReport {
     /// Where each search path ended (the chosen one has `chosen`).
     pub paths: Vec<PathEnd>,
     /// The form of what the final model misses
-    /// ([`crate::criticism::missing_form`]).
+    /// ([`mod@crate::criticism::missing_form`]).
     pub missing_form: MissingForm,
     /// The record's warnings and those of the final model's fit.
     pub warnings: Vec<Warning>,
