@@ -10,7 +10,7 @@
 //! end.
 
 use hbis::criticism::{fit_model, ladder_observed};
-use hbis::data::synthesize;
+use hbis::data::{synthesize, Aligned};
 use hbis::inference::{MapSettings, Noise};
 use hbis::model::{Model, Params, Registry};
 use rand::{rngs::StdRng, SeedableRng};
@@ -19,8 +19,8 @@ use rand::{rngs::StdRng, SeedableRng};
 /// were seen to differ (they agree to 0.1 on this record).
 const SEARCH_NOISE: f64 = 1.0;
 
-#[test]
-fn the_readme_record_ends_no_worse_than_the_true_structure() {
+/// The README's Python record and the model that made it.
+fn readme_record() -> (Model, Aligned) {
     let truth_model = Model::parse("trilinear+lcfm+viscous").unwrap();
     let truth = truth_model
         .theta_from_params(&Params::table_8_1(5).unwrap(), &[])
@@ -31,6 +31,12 @@ fn the_readme_record_ends_no_worse_than_the_true_structure() {
         .record
         .aligned(None)
         .unwrap();
+    (truth_model, data)
+}
+
+#[test]
+fn the_readme_record_ends_no_worse_than_the_true_structure() {
+    let (truth_model, data) = readme_record();
     let settings = MapSettings::default();
     let seed = 1;
     println!("record seed 7, ladder seed {seed}");
@@ -93,16 +99,7 @@ fn the_readme_record_ends_no_worse_than_the_true_structure() {
 fn criticisms_ar1_noise_does_not_absorb_a_misfit() {
     use hbis::criticism::choose_noise;
     use hbis::criticism::ranking::rho_max;
-    let truth_model = Model::parse("trilinear+lcfm+viscous").unwrap();
-    let truth = truth_model
-        .theta_from_params(&Params::table_8_1(5).unwrap(), &[])
-        .unwrap();
-    let mut rng = StdRng::seed_from_u64(7);
-    let data = synthesize(&truth_model, &truth, 0.005, 2001, 0.015, &mut rng)
-        .unwrap()
-        .record
-        .aligned(None)
-        .unwrap();
+    let (_, data) = readme_record();
     let start = Model::parse("linear+coulomb").unwrap();
     let settings = MapSettings::default();
     let white = fit_model(&start, &data, Noise::White, None, &settings, 1).unwrap();
