@@ -856,19 +856,21 @@ fn kind_name(k: FeatureKind) -> String {
         .unwrap_or_default()
 }
 
-/// The targeted feature, significant before, that shrank most (by
-/// ratio): before and after. (A structure that was not significant is
-/// noise: a candidate that shrinks it explains nothing; one gate passed on
-/// a jump size at 0.29 standard errors.)
+/// The targeted feature that shrank most (by ratio): before and after.
+///
+/// Requiring the feature to be significant before (issue 35: a gate passed
+/// on a jump size at 0.29 standard errors) was tried on 2026-11-28 and
+/// undone: it kept `friction-decay` out of a Maxwell record, but also the
+/// Maxwell effect itself out of another (its declared structures were not
+/// significant there, only the residual's colour) and broke the ladder of
+/// the full model; falling back on the colour let `velocity-friction` in
+/// on the degrading-stiffness record.
 fn shrink_of(targets: &[FeatureKind], before: &[Feature], after: &[Feature]) -> (f64, f64) {
-    let find = |fs: &[Feature], k: FeatureKind, significant: bool| {
-        fs.iter()
-            .find(|f| f.kind == k && (f.significant || !significant))
-            .map(|f| f.magnitude)
-    };
+    let find =
+        |fs: &[Feature], k: FeatureKind| fs.iter().find(|f| f.kind == k).map(|f| f.magnitude);
     targets
         .iter()
-        .filter_map(|&k| Some((find(before, k, true)?, find(after, k, false)?)))
+        .filter_map(|&k| Some((find(before, k)?, find(after, k)?)))
         // A structure absent before cannot shrink (0/0 must not pass).
         .filter(|(b, a)| *b > 0.0 && a.is_finite())
         .min_by(|a, b| (a.1 / a.0).total_cmp(&(b.1 / b.0)))
@@ -988,7 +990,7 @@ impl Gate {
         }
         if !self.shrinks() && self.target_before.is_nan() {
             why.push(format!(
-                "none of the residual structure it targets ({}) is significant",
+                "none of the residual structure it targets ({}) is present",
                 names.join(", ")
             ));
         } else if !self.shrinks() {

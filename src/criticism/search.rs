@@ -544,12 +544,16 @@ pub fn ladder_observed(
         )?;
         paths.push(steps);
     }
-    let chosen = (0..paths.len())
-        .min_by(|&a, &b| {
-            let bic = |k: usize| paths[k].last().map_or(f64::INFINITY, |x| x.bic);
-            bic(a).total_cmp(&bic(b))
-        })
-        .unwrap_or(0);
+    // The lowest-BIC end; a later path that ends at the same model as an
+    // earlier one is the same answer (its BIC differs by the refits' last
+    // digits), and the earlier path's steps are kept.
+    let last = |k: usize| paths[k].last().expect("a path has its start step");
+    let mut chosen = 0;
+    for k in 1..paths.len() {
+        if last(k).model != last(chosen).model && last(k).bic < last(chosen).bic {
+            chosen = k;
+        }
+    }
     let ends = paths
         .iter()
         .enumerate()
