@@ -239,7 +239,19 @@ fn identify(out: &mut impl Write, dir: &mut OutDir) -> Result<()> {
 /// synthetic Kanai-Tajimi motion (0.3 g), against a 0.3 m capacity.
 fn earthquake(out: &mut impl Write, dir: &mut OutDir) -> Result<()> {
     let fit_dir = dir.path("fit");
-    let fit = hbis::predict::FitDraws::read(&fit_dir)?;
+    // The manifest is written when the demo finishes: read the fit's files
+    // as this run wrote them, each checked.
+    let files: Vec<_> = dir
+        .written()
+        .iter()
+        .filter_map(|f| {
+            Some(hbis::report::outdir::FileEntry {
+                name: f.name.strip_prefix("fit/")?.to_string(),
+                ..f.clone()
+            })
+        })
+        .collect();
+    let fit = hbis::predict::FitDraws::read_listed(&fit_dir, &Registry::builtin(), &files)?;
     let motion = hbis::data::ground_motion::KanaiTajimi::default().generate(SEED)?;
     let job = hbis::study::prediction::PredictJob {
         model: fit.model.clone(),

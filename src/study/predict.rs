@@ -35,6 +35,8 @@ use thiserror::Error;
 use crate::inference::summary::{quantile, ParamSummary};
 use crate::model::forced::{Excitation, ForcedSink, Peaks};
 use crate::model::{ForwardModel, Model, Registry, SimError};
+use crate::report::outdir::FileEntry;
+use crate::report::verify::{check_files, read_manifest, VerifyError};
 
 /// What went wrong in a prediction.
 #[derive(Debug, Error)]
@@ -78,6 +80,9 @@ pub enum PredictError {
     /// Settings that cannot work.
     #[error("{0}")]
     Invalid(String),
+    /// The fit folder is not what its run wrote.
+    #[error(transparent)]
+    Folder(#[from] VerifyError),
 }
 
 /// One parameter set to simulate.
@@ -508,14 +513,33 @@ impl FitDraws {
     }
 
     /// [`FitDraws::read`] with the model parsed by `registry` (a fit of a
-    /// model with a user's components).
+    /// model with a user's components). Only the files the folder's
+    /// manifest lists are read, each checked against its size and SHA-256
+    /// ([`crate::report::verify`]).
     pub fn read_with(dir: &Path, registry: &Registry) -> Result<Self, PredictError> {
+        let listed = read_manifest(dir)?;
+        Self::read_listed(dir, registry, &listed.files)
+    }
+
+    /// [`FitDraws::read_with`] from the files `files` lists (names relative
+    /// to `dir`, as a run in progress has written them), each checked.
+    pub fn read_listed(
+        dir: &Path,
+        registry: &Registry,
+        files: &[FileEntry],
+    ) -> Result<Self, PredictError> {
+        check_files(dir, files)?;
         let fit_path = dir.join("fit.json");
-        let text = read(&fit_path)?;
         let bad = |problem: String| PredictError::Fit {
             path: fit_path.display().to_string(),
             problem,
         };
+        if !files.iter().any(|f| f.name == "fit.json") {
+            return Err(bad(
+                "not listed in the run's manifest (not a fit folder?)".into()
+            ));
+        }
+        let text = read(&fit_path)?;
         let json: serde_json::Value =
             serde_json::from_str(&text).map_err(|e| bad(format!("not JSON: {e}")))?;
         let spec = json["model"]
@@ -529,13 +553,10 @@ impl FitDraws {
         let seed = json["seed"]
             .as_u64()
             .ok_or_else(|| bad("no `seed` integer".into()))?;
+        let chains = listed_chains(dir, files)?;
         let mut draws = Vec::new();
-        for chain in 1.. {
-            let path = dir.join("chains").join(format!("chain-{chain}.csv"));
-            if !path.exists() {
-                break;
-            }
-            read_chain(&path, chain, &model, &mut draws)?;
+        for (chain, name) in chains {
+            read_chain(&dir.join(name), chain, &model, &mut draws)?;
         }
         if draws.is_empty() {
             return Err(bad(format!(
@@ -555,6 +576,39 @@ impl FitDraws {
         }
         (0..n).map(|i| self.draws[i * total / n].clone()).collect()
     }
+}
+
+/// The chain files the manifest lists, by chain number. A chain file in
+/// the folder that the manifest does not list belongs to another run and
+/// is refused rather than skipped: the folder is not what its run wrote.
+fn listed_chains<'a>(
+    dir: &Path,
+    files: &'a [FileEntry],
+) -> Result<Vec<(usize, &'a str)>, PredictError> {
+    let number = |name: &str| -> Option<usize> {
+        name.strip_prefix("chains/chain-")?
+            .strip_suffix(".csv")?
+            .parse()
+            .ok()
+    };
+    let mut chains: Vec<(usize, &str)> = files
+        .iter()
+        .filter_map(|f| Some((number(&f.name)?, f.name.as_str())))
+        .collect();
+    chains.sort_unstable();
+    if let Ok(entries) = std::fs::read_dir(dir.join("chains")) {
+        for e in entries.flatten() {
+            let name = format!("chains/{}", e.file_name().to_string_lossy());
+            if number(&name).is_some() && !chains.iter().any(|(_, n)| *n == name) {
+                return Err(PredictError::Folder(VerifyError::Changed {
+                    path: dir.join(&name).display().to_string(),
+                    problem: "a chain the run's manifest does not list (left by another run?)"
+                        .into(),
+                }));
+            }
+        }
+    }
+    Ok(chains)
 }
 
 fn read(path: &Path) -> Result<String, PredictError> {

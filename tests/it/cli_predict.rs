@@ -14,6 +14,22 @@ use hbis::model::{ModelSpec, Params, System};
 const TEST5: &str = r#"{"u0": 0.1166, "uy": 0.01167, "uF0": 0.00234, "rF0": 0.00235, "zeta0": 0.02256,
  "f0": 0.53979, "f1": 0.41723, "f2": 0.37477, "u3": 0.08252}"#;
 
+/// One draw of Test 5 as a CmdStan-style chain.
+const CHAIN: &str = "# a comment\nlp__,accept_stat__,u0,uy,uF0,rF0,zeta0,f0,f1,f2,u3\n0,0,0.1166,0.01167,0.00234,0.00235,0.02256,0.53979,0.41723,0.37477,0.08252\n";
+
+/// A fit folder as a finished `hbis fit` leaves it: `fit.json`, the chains
+/// and the manifest listing them.
+fn finished_fit(dir: &Path, fit_json: &str, chains: &[&str]) {
+    let mut out = hbis::report::outdir::OutDir::open(dir, &[], "fit").unwrap();
+    out.write("fit.json", fit_json.as_bytes()).unwrap();
+    for (i, c) in chains.iter().enumerate() {
+        out.write(&format!("chains/chain-{}.csv", i + 1), c.as_bytes())
+            .unwrap();
+    }
+    out.finish("fit", 1, "trilinear+lcfm+viscous", None)
+        .unwrap();
+}
+
 fn write(dir: &Path, name: &str, text: &str) {
     std::fs::write(dir.join(name), text).unwrap();
 }
@@ -213,14 +229,8 @@ fn bad_predict_input_exits_2_naming_what_is_wrong() {
     assert_eq!(o.status.code(), Some(2));
     assert!(stderr(&o).contains("nowhere"), "{}", stderr(&o));
     // An output folder that holds the fit is refused, the fit untouched.
-    std::fs::create_dir_all(d.path().join("fit/chains")).unwrap();
     let fit_json = r#"{"model": "trilinear+lcfm+viscous", "seed": 1}"#;
-    write(&d.path().join("fit"), "fit.json", fit_json);
-    write(
-        &d.path().join("fit/chains"),
-        "chain-1.csv",
-        "# a comment\nlp__,accept_stat__,u0,uy,uF0,rF0,zeta0,f0,f1,f2,u3\n0,0,0.1166,0.01167,0.00234,0.00235,0.02256,0.53979,0.41723,0.37477,0.08252\n",
-    );
+    finished_fit(&d.path().join("fit"), fit_json, &[CHAIN]);
     let o = hbis(
         d.path(),
         &["predict", "--fit", "fit", "--synthetic", "--out", "."],
@@ -252,4 +262,83 @@ fn bad_predict_input_exits_2_naming_what_is_wrong() {
         "{}",
         stderr(&o)
     );
+}
+
+/// A fit folder changed after its run (issue 37): each change is refused
+/// with exit code 2, naming the file, and nothing is predicted from it.
+#[test]
+fn predict_refuses_a_fit_folder_that_is_not_what_its_run_wrote() {
+    let d = tempfile::tempdir().unwrap();
+    let fit_json = r#"{"model": "trilinear+lcfm+viscous", "seed": 1}"#;
+    let second = CHAIN.replace("0.1166", "0.1167");
+    type Tamper = fn(&Path);
+    let cases: Vec<(&str, Tamper, &str)> = vec![
+        // A refit killed between two chain renames: its run removed the
+        // manifest when it started.
+        (
+            "killed refit",
+            |f| std::fs::remove_file(f.join("manifest.json")).unwrap(),
+            "did not finish",
+        ),
+        (
+            "chain deleted",
+            |f| std::fs::remove_file(f.join("chains/chain-2.csv")).unwrap(),
+            "chain-2.csv: listed but cannot be read",
+        ),
+        (
+            "chain of another run beside them",
+            |f| {
+                std::fs::copy(f.join("chains/chain-1.csv"), f.join("chains/chain-3.csv"))
+                    .map(|_| ())
+                    .unwrap()
+            },
+            "chain-3.csv: a chain the run's manifest does not list",
+        ),
+        (
+            "digits changed",
+            |f| {
+                let p = f.join("chains/chain-1.csv");
+                let t = std::fs::read_to_string(&p)
+                    .unwrap()
+                    .replace("0.53979", "0.53978");
+                std::fs::write(p, t).unwrap()
+            },
+            "chain-1.csv: its SHA-256 differs",
+        ),
+        (
+            "chain cut at a line end",
+            |f| {
+                let p = f.join("chains/chain-2.csv");
+                let t = std::fs::read_to_string(&p).unwrap();
+                let cut = t.trim_end().rfind('\n').unwrap() + 1;
+                std::fs::write(p, &t[..cut]).unwrap()
+            },
+            "chain-2.csv:",
+        ),
+        (
+            "model edited",
+            |f| {
+                let p = f.join("fit.json");
+                let t = std::fs::read_to_string(&p)
+                    .unwrap()
+                    .replace("lcfm", "coulomb");
+                std::fs::write(p, t).unwrap()
+            },
+            "fit.json:",
+        ),
+    ];
+    for (k, (what, tamper, needle)) in cases.into_iter().enumerate() {
+        let fit = d.path().join(format!("fit-{k}"));
+        finished_fit(&fit, fit_json, &[CHAIN, &second]);
+        let (name, ok, out) = (format!("fit-{k}"), format!("ok-{k}"), format!("p-{k}"));
+        let args =
+            |out: &str| ["predict", "--fit", &name, "--synthetic", "--out", out].map(String::from);
+        let o = hbis(d.path(), &args(&ok).each_ref().map(String::as_str));
+        assert!(o.status.success(), "untouched, {what}: {}", stderr(&o));
+        tamper(&fit);
+        let o = hbis(d.path(), &args(&out).each_ref().map(String::as_str));
+        assert_eq!(o.status.code(), Some(2), "{what}: {}", stderr(&o));
+        assert!(stderr(&o).contains(needle), "{what}: {}", stderr(&o));
+        assert!(!d.path().join(out).join("predict.json").exists(), "{what}");
+    }
 }
