@@ -113,7 +113,7 @@ pub fn print_warnings(warnings: &[Warning]) {
 pub fn model_params(model: &Model, path: &Path) -> Result<Vec<f64>> {
     let within = || format!("parameters {}", path.display());
     let text = std::fs::read_to_string(path).with_context(within)?;
-    let value: serde_json::Value = serde_json::from_str(&text).with_context(within)?;
+    let value = hbis::data::strict_json::parse(&text).with_context(within)?;
     let Some(obj) = value.as_object() else {
         bail!("{}: expected a JSON object of parameters", within());
     };

@@ -50,6 +50,19 @@ pub struct GroundMotion {
     pub source: String,
 }
 
+/// The sampling steps a ground motion may have (s): strong-motion records
+/// are sampled at 50 to 200 Hz; outside this range the file's DT (or its
+/// unit) is wrong, and a step of 1e-300 s would make every response zero.
+pub const DT_LIMITS: (f64, f64) = (1e-5, 0.1);
+
+/// Most samples of a ground motion, tail included (as many as a record may
+/// have, [`crate::data::record::MAX_SAMPLES`]): 5.5 hours at 100 Hz.
+pub const MAX_SAMPLES: usize = crate::data::record::MAX_SAMPLES;
+
+/// Largest peak ground acceleration accepted (m/s^2): 10 g, over twice the
+/// largest ever recorded. Above it the unit or the scale factor is wrong.
+pub const MAX_PGA: f64 = 10.0 * 9.80665;
+
 /// What is wrong with a ground-motion file or generator setting.
 #[derive(Debug, Error)]
 pub enum MotionError {
@@ -77,6 +90,16 @@ pub enum MotionError {
         line: usize,
         /// The text.
         value: String,
+    },
+    /// The file ends inside a number.
+    #[error("line {line}: `{last}` ends the file without a line end and is shorter than the value before it (`{before}`): the file was cut short; restore it, or end the file with a line end if `{last}` is complete")]
+    CutShort {
+        /// 1-based line of the last value.
+        line: usize,
+        /// The last value.
+        last: String,
+        /// The value before it.
+        before: String,
     },
     /// The number of values does not match the header.
     #[error("the header says NPTS = {expected}, the file holds {found} values")]
@@ -122,6 +145,14 @@ impl GroundMotion {
             )));
         }
         self.ag.iter_mut().for_each(|a| *a *= factor);
+        let pga = self.pga();
+        if pga > MAX_PGA {
+            return Err(MotionError::Invalid(format!(
+                "scale factor {factor}: the scaled motion's PGA is {pga:.4e} m/s^2 ({:.3e} g), above the {} g any earthquake reaches; check the factor and the motion's unit",
+                pga / 9.80665,
+                MAX_PGA / 9.80665
+            )));
+        }
         Ok(self)
     }
 
@@ -164,7 +195,19 @@ impl GroundMotion {
             }
         };
         let (npts, dt) = npts_dt(lines[3])?;
-        let mut ag = Vec::with_capacity(npts);
+        check_step(dt)?;
+        if npts > MAX_SAMPLES {
+            return Err(MotionError::Header {
+                line: 4,
+                problem: format!("NPTS = {npts}: more than the {MAX_SAMPLES} samples hbis reads"),
+            });
+        }
+        // Never more than the text can hold, whatever NPTS claims.
+        let mut ag = Vec::with_capacity(npts.min(text.len() / 2 + 1));
+        let mut tail = text.split_whitespace().rev();
+        if let (Some(last), Some(before)) = (tail.next(), tail.next()) {
+            cut_short(text, lines.len(), last, before)?;
+        }
         for (i, line) in lines.iter().enumerate().skip(4) {
             for field in line.split_whitespace() {
                 let v: f64 = field
@@ -205,6 +248,8 @@ impl GroundMotion {
     pub fn parse_columns(text: &str, units: AccelUnits) -> Result<Self, MotionError> {
         let mut t = Vec::new();
         let mut ag = Vec::new();
+        // The last two `ag` fields as written (line, text): a cut file.
+        let mut texts: (Field, Field) = (None, None);
         for (i, line) in text.lines().enumerate() {
             let line = line.trim();
             if line.is_empty() || line.starts_with('#') {
@@ -215,6 +260,12 @@ impl GroundMotion {
                 .filter(|f| !f.is_empty())
                 .collect();
             let nums: Option<Vec<f64>> = fields.iter().take(2).map(|f| f.parse().ok()).collect();
+            if t.len() >= MAX_SAMPLES {
+                return Err(MotionError::Invalid(format!(
+                    "line {}: more than the {MAX_SAMPLES} samples hbis reads",
+                    i + 1
+                )));
+            }
             match nums {
                 Some(v) if v.len() == 2 => {
                     for x in &v {
@@ -227,6 +278,7 @@ impl GroundMotion {
                     }
                     t.push(v[0]);
                     ag.push(v[1] * units.factor());
+                    texts = (texts.1, Some((i + 1, fields[1])));
                 }
                 // A header row before any data.
                 _ if t.is_empty() => continue,
@@ -239,6 +291,9 @@ impl GroundMotion {
             }
         }
         check_len(ag.len())?;
+        if let (Some((_, before)), Some((line, last))) = texts {
+            cut_short(text, line, last, before)?;
+        }
         let dt = t[1] - t[0];
         if dt.is_nan() || dt <= 0.0 {
             return Err(MotionError::Grid {
@@ -248,6 +303,7 @@ impl GroundMotion {
                 dt,
             });
         }
+        check_step(dt)?;
         for (k, w) in t.windows(2).enumerate() {
             let expected = t[0] + (k + 1) as f64 * dt;
             if (w[1] - expected).abs() > 1e-6 * dt.max(expected.abs() * 1e-3) + 1e-9 {
@@ -267,6 +323,9 @@ impl GroundMotion {
     }
 }
 
+/// A value as written, with its 1-based line.
+type Field<'a> = Option<(usize, &'a str)>;
+
 fn read(path: &Path) -> Result<String, MotionError> {
     std::fs::read_to_string(path).map_err(|source| MotionError::Io {
         path: path.display().to_string(),
@@ -281,6 +340,32 @@ fn check_len(n: usize) -> Result<(), MotionError> {
         )));
     }
     Ok(())
+}
+
+/// Refuses a step outside [`DT_LIMITS`].
+fn check_step(dt: f64) -> Result<(), MotionError> {
+    let (lo, hi) = DT_LIMITS;
+    if !(lo..=hi).contains(&dt) {
+        return Err(MotionError::Invalid(format!(
+            "time step {dt:e} s: a ground motion is sampled every {lo:e} to {hi} s (check DT and its unit)"
+        )));
+    }
+    Ok(())
+}
+
+/// Refuses a file that ends inside a number: its last line has no line
+/// end and its last value is shorter than the one before it. A number cut
+/// short still parses (`1.6723E-01` cut to `1.6723` reads ten times too
+/// large), so the length is the only trace of the cut.
+fn cut_short(text: &str, line: usize, last: &str, before: &str) -> Result<(), MotionError> {
+    if text.is_empty() || text.ends_with('\n') || last.len() >= before.len() {
+        return Ok(());
+    }
+    Err(MotionError::CutShort {
+        line,
+        last: last.to_string(),
+        before: before.to_string(),
+    })
 }
 
 /// `NPTS= 4000, DT= .0100 SEC` or `4000 .0050 NPTS, DT`.
@@ -394,7 +479,15 @@ impl KanaiTajimi {
     /// The motion of `seed` (the same seed, the same motion).
     pub fn generate(&self, seed: u64) -> Result<GroundMotion, MotionError> {
         self.check()?;
-        let n = (self.duration / self.dt + 1e-9).floor() as usize + 1;
+        check_step(self.dt)?;
+        let steps = (self.duration / self.dt + 1e-9).floor();
+        if steps >= MAX_SAMPLES as f64 {
+            return Err(MotionError::Invalid(format!(
+                "Kanai-Tajimi motion: {} s at {} s is more than the {MAX_SAMPLES} samples hbis generates",
+                self.duration, self.dt
+            )));
+        }
+        let n = steps as usize + 1;
         let w = 2.0 * std::f64::consts::PI * self.f_g;
         let (k, c) = (w * w, 2.0 * self.zeta_g * w);
         // State (x, x'); x'' = -k x - c x' - noise.
@@ -474,6 +567,64 @@ NPTS=     7, DT=   .0100 SEC\n\
                 .to_string();
             assert!(e.contains(expect), "{expect}: {e}");
         }
+    }
+
+    /// Issue 37: sizes, steps, cut files and scales that used to abort or
+    /// give a silently wrong motion.
+    #[test]
+    fn hostile_motions_are_refused_before_any_allocation() {
+        let fixed = "PEER\nx\nACCELERATION TIME SERIES IN UNITS OF G\nNPTS=     3, DT=   .0100 SEC\n  1.8700000E-01  1.6723000E-01  1.6723000E-01\n";
+        let cases = [
+            (
+                AT2.replace("NPTS=     7", "NPTS= 1000000000000000"),
+                "NPTS = 1000000000000000: more than",
+            ),
+            (
+                AT2.replace("NPTS=     7", "NPTS= 9000000000000000000"),
+                "more than the 2000000",
+            ),
+            (
+                AT2.replace("DT=   .0100", "DT=   1e-300"),
+                "time step 1e-300 s",
+            ),
+            (AT2.replace("DT=   .0100", "DT=   10"), "time step 1e1 s"),
+            (fixed.trim_end().to_string() + "X", "`1.6723000E-01X`"),
+            (
+                fixed.trim_end()[..fixed.trim_end().len() - 4].to_string(),
+                "the file was cut short",
+            ),
+        ];
+        for (text, expect) in cases {
+            let e = GroundMotion::parse_at2(&text, None)
+                .unwrap_err()
+                .to_string();
+            assert!(e.contains(expect), "{expect}: {e}");
+        }
+        // Complete values without a final line end are read.
+        let m = GroundMotion::parse_at2(fixed.trim_end(), None).unwrap();
+        assert!((m.pga() - 0.187 * 9.80665).abs() < 1e-12);
+        let e = GroundMotion::parse_columns("0 0.1875\n0.01 0.1672\n0.02 0.16", AccelUnits::G)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("line 3: `0.16`") && e.contains("cut short"),
+            "{e}"
+        );
+        let e = GroundMotion::parse_columns("0 0.1\n1e-300 0.2\n", AccelUnits::G)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("time step 1e-300 s"), "{e}");
+        let e = m.scaled(1e10).unwrap_err().to_string();
+        assert!(
+            e.contains("scale factor 10000000000") && e.contains("PGA"),
+            "{e}"
+        );
+        let huge = KanaiTajimi {
+            duration: 1e15,
+            ..KanaiTajimi::default()
+        };
+        let e = huge.generate(1).unwrap_err().to_string();
+        assert!(e.contains("more than the 2000000 samples"), "{e}");
     }
 
     #[test]

@@ -3,6 +3,7 @@
 
 pub mod ground_motion;
 pub mod record;
+pub mod strict_json;
 pub mod synthetic;
 pub mod validation;
 

@@ -323,10 +323,12 @@ impl Priors {
                 message: e.to_string(),
             })?
         } else {
-            serde_json::from_str(text).map_err(|e| PriorError::Syntax {
-                format: "JSON",
-                message: e.to_string(),
-            })?
+            crate::data::strict_json::parse(text)
+                .and_then(serde_json::from_value)
+                .map_err(|e| PriorError::Syntax {
+                    format: "JSON",
+                    message: e.to_string(),
+                })?
         };
         let mut overrides = BTreeMap::new();
         for (name, value) in raw {

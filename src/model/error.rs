@@ -88,7 +88,7 @@ pub enum SimError {
         requirement: &'static str,
     },
     /// More phases than the cap allows (a runaway or Zeno-like response).
-    #[error("more than {cap} phases of motion before t = {t:.6} s (raise the phase cap if this is expected)")]
+    #[error("more than {cap} phases of motion before t = {t:.6} s: a runaway or chattering response (check the parameters, and a motion's unit and scale; library callers may raise `SimOptions::phase_cap`)")]
     PhaseCap { cap: usize, t: f64 },
     /// The response grows without bound (negative net stiffness).
     #[error("the response diverges (|u| = {u:e} m at t = {t:.6} s): the net restoring force becomes negative")]

@@ -69,6 +69,10 @@ pub struct Excitation<'a> {
     n: usize,
 }
 
+/// Most samples of a forced response (motion and tail), as many as a
+/// ground motion may have ([`crate::data::ground_motion::MAX_SAMPLES`]).
+pub const MAX_FORCED_SAMPLES: usize = 2_000_000;
+
 impl<'a> Excitation<'a> {
     /// Ground acceleration `ag` (m/s^2) at `t_i = i dt`, then `tail` seconds
     /// of stillness.
@@ -88,7 +92,16 @@ impl<'a> Excitation<'a> {
                 requirement: "sample at this index is not a finite number",
             });
         }
-        let n = ag.len() + (tail / dt).round() as usize;
+        // Checked in floating point: a cast would wrap `1e300 / dt`.
+        let n = ag.len() as f64 + (tail / dt).round();
+        if n > MAX_FORCED_SAMPLES as f64 {
+            return Err(SimError::Grid {
+                name: "tail",
+                value: tail,
+                requirement: "motion and tail together exceed 2,000,000 samples",
+            });
+        }
+        let n = n as usize;
         Ok(Self { dt, ag, n })
     }
 

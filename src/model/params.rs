@@ -273,8 +273,8 @@ impl Params {
     /// Parse a JSON object `{"u0": 0.1, ...}` (or `{"params": {...}}`); names are checked against
     /// the paper's set (the model checks which it needs).
     pub fn map_from_json(text: &str) -> Result<BTreeMap<ParamName, f64>, ParamError> {
-        let value: serde_json::Value =
-            serde_json::from_str(text).map_err(|e| ParamError::Json(e.to_string()))?;
+        let value =
+            crate::data::strict_json::parse(text).map_err(|e| ParamError::Json(e.to_string()))?;
         let obj = match value {
             // Accept a bare object or one holding it under "params"
             // (the shape of hbis' own outputs and of the shared records).

@@ -188,6 +188,12 @@ impl ModelSpec {
                 return Err(bad(name, "must be a finite number"));
             }
         }
+        if p.u0 == 0.0 {
+            return Err(bad(
+                ParamName::U0,
+                "must be nonzero: the release displacement (a test released from 0 does not move)",
+            ));
+        }
         if p.f0 <= 0.0 {
             return Err(bad(ParamName::F0, "must be > 0"));
         }

@@ -197,6 +197,20 @@ fn bad_predict_input_exits_2_naming_what_is_wrong() {
     write(d.path(), "gm.csv", "t,ag\n0,0.1\n0.01,0.2\n0.02,0.1\n");
     write(d.path(), "bad.csv", "t,ag\n0,0.1\n0.01,zz\n");
     write(d.path(), "extra.json", &TEST5.replace("\"u3\"", "\"u4\""));
+    write(d.path(), "twice.json", &TEST5.replace("\"uy\"", "\"u0\""));
+    write(d.path(), "zero.json", &TEST5.replace("0.1166", "0"));
+    let good = at2();
+    write(
+        d.path(),
+        "npts.AT2",
+        &good.replace("NPTS= 1001", "NPTS= 9000000000000000000"),
+    );
+    write(d.path(), "dt.AT2", &good.replace("DT= .0100", "DT= 1e-300"));
+    write(
+        d.path(),
+        "cut.AT2",
+        &good.trim_end()[..good.trim_end().len() - 3],
+    );
     let base = ["predict", "--model", "trilinear+lcfm+viscous", "--params"];
     let cases: Vec<(Vec<&str>, &str)> = vec![
         (vec!["p.json", "--motion", "gm.csv"], "--motion-units"),
@@ -217,6 +231,23 @@ fn bad_predict_input_exits_2_naming_what_is_wrong() {
             "--capacity",
         ),
         (vec!["p.json", "--motion", "missing.AT2"], "missing.AT2"),
+        // Issue 37: each of these aborted, wrapped or answered wrongly.
+        (
+            vec!["p.json", "--motion", "npts.AT2"],
+            "more than the 2000000",
+        ),
+        (vec!["p.json", "--motion", "dt.AT2"], "time step 1e-300 s"),
+        (vec!["p.json", "--motion", "cut.AT2"], "cut short"),
+        (vec!["p.json", "--synthetic", "--tail", "1e300"], "tail"),
+        (
+            vec!["p.json", "--synthetic", "--scale", "1e10"],
+            "scale factor",
+        ),
+        (
+            vec!["twice.json", "--synthetic"],
+            "duplicate key `u0` at line 1 column 19",
+        ),
+        (vec!["zero.json", "--synthetic"], "`u0` = 0: must be nonzero"),
     ];
     for (rest, needle) in cases {
         let args: Vec<&str> = base.iter().copied().chain(rest.iter().copied()).collect();
