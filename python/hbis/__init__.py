@@ -9,8 +9,13 @@ in and out. Same inputs and seed give the numbers the binary gives.
 >>> round(float(u[0]), 4) == p["u0"]
 True
 
-Errors in the inputs raise ``ValueError`` with the message the binary
-prints (which field, what was expected).
+Errors in the inputs raise ``ValueError`` (``TypeError`` for a wrong type)
+with the message the binary prints, naming the argument and what was
+expected; sizes the binary refuses (a record of more than 2,000,000
+samples, a simulated grid of more than 1e7) are refused before anything is
+allocated. Long runs release the GIL and raise ``KeyboardInterrupt`` on
+Ctrl-C at once; an exception raised by a ``progress`` callback ends the
+run and is raised from the call.
 """
 
 from __future__ import annotations
@@ -303,8 +308,11 @@ def fit(
     polish, then the ensemble sampler until the kept chain is 50
     autocorrelation times long and split R-hat <= 1.01. ``progress``, if
     given, is called as ``progress(steps, target_steps, tau_max)`` while
-    sampling (e.g. to drive a tqdm bar). The GIL is released while the fit
-    runs. ``effects``: effect files (TOML) whose components ``model`` may
+    sampling (e.g. to drive a tqdm bar); an exception it raises ends the fit
+    and is raised here, and anything else than a callable or ``None`` is a
+    ``TypeError``. The GIL is released while the fit runs, and Ctrl-C
+    raises ``KeyboardInterrupt`` at once (the fit is abandoned).
+    ``effects``: effect files (TOML) whose components ``model`` may
     name, as the binary's ``--effects``; :meth:`Fit.predict` uses them too.
     ``source``: the record's name in the report (``data.source``; default:
     the file a :class:`Record` was read from, else ``"array"``).
@@ -386,7 +394,8 @@ def ladder(
 ) -> Dict[str, Any]:
     """``hbis ladder``: add the best supported effect, refit, repeat. Returns
     ``ladder.json`` as a dict, key for key (``model``, ``final_model``,
-    ``steps``, ...); ``progress(k, model)`` is called after each step.
+    ``steps``, ...); ``progress(k, model)`` is called after each step (an
+    exception it raises ends the ladder and is raised here).
     ``effects``, ``candidates``, ``exclude`` and ``source`` are as in
     :func:`diagnose`."""
     t, a, t0, named = _arrays(record)
@@ -446,11 +455,19 @@ class Prediction:
         return f"Prediction({self.per_draw.shape[0]} draws, peak displacement median {d['q50']:.4g} m)"
 
 
-def _predict(model, thetas, ag, dt, tail, capacity, masses, effects=()) -> Prediction:
+def _predict(model, thetas, ag, dt, tail, capacity, masses, effects=(), mass=None) -> Prediction:
     rows = [list(map(float, t)) for t in np.atleast_2d(np.asarray(thetas, dtype=float))]
     ag = np.ascontiguousarray(ag, dtype=float)
     per_draw, text = _hbis.predict(
-        model, rows, float(dt), ag, float(tail), capacity, masses, effects=_effects(effects)
+        model,
+        rows,
+        float(dt),
+        ag,
+        float(tail),
+        capacity,
+        masses,
+        effects=_effects(effects),
+        mass=None if mass is None else float(mass),
     )
     return Prediction(per_draw, json.loads(text))
 
@@ -469,6 +486,8 @@ def predict(
     """One parameter set's response to a ground motion ``ag`` (m/s^2, step
     ``dt``) from rest, ``tail`` seconds after it ends (``hbis predict --model
     --params``). For a fitted posterior use :meth:`Fit.predict`.
+    ``mass`` (t) adds the base shear in kN; it and ``capacity`` (m) must be
+    finite and > 0, as ``--mass`` and ``--capacity``.
     ``effects``: effect files whose components ``model`` may name."""
     names = param_names(model, effects=effects)
     extra = sorted(set(params) - set(names))
@@ -478,7 +497,7 @@ def predict(
     if missing:
         raise ValueError(f"params: {missing[0]!r} is missing (the parameters of {model}: {', '.join(names)})")
     theta = [[float(params[n]) for n in names]]
-    return _predict(model, theta, ag, dt, tail, capacity, None if mass is None else [float(mass)], effects)
+    return _predict(model, theta, ag, dt, tail, capacity, None, effects, mass=mass)
 
 
 def ground_motion(

@@ -1,5 +1,13 @@
 """Type stubs of the compiled part of hbis (``hbis._hbis``). Use the
-wrappers in ``hbis`` (``hbis.fit``, ``hbis.Record``, ...) rather than these."""
+wrappers in ``hbis`` (``hbis.fit``, ``hbis.Record``, ...) rather than these.
+
+Arrays (``t``, ``a``, ``ag``) must be 1-D float64 numpy arrays (any
+strides); integers (``seed``, ``n``, ``walkers``, ...) non-negative ``int``s.
+Otherwise a ``ValueError`` (a ``TypeError`` for a wrong type) names the
+argument. ``simulate``, ``fit``, ``diagnose``, ``ladder`` and ``predict``
+run with the GIL released and raise ``KeyboardInterrupt`` on Ctrl-C at
+once; an exception raised by a ``progress`` callback ends the run and is
+raised from the call."""
 
 from typing import Callable, Dict, List, Optional, Tuple
 
@@ -40,7 +48,7 @@ def fit(
     seed: int = 1,
     t0: Optional[float] = None,
     map_only: bool = False,
-    ensembles: int = 4,
+    ensembles: int = 2,
     walkers: Optional[int] = None,
     tau_multiple: float = 50.0,
     max_steps: int = 20000,
@@ -94,4 +102,5 @@ def predict(
     capacity: Optional[float] = None,
     masses: Optional[List[float]] = None,
     effects: List[str] = ...,
+    mass: Optional[float] = None,
 ) -> Tuple[Array, str]: ...

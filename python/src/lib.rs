@@ -3,25 +3,43 @@
 //! package `hbis` wraps them (`python/hbis/__init__.py`) with pandas and
 //! ArviZ conveniences.
 //!
-//! Every error is a Python `ValueError` whose message is the library
-//! error's whole cause chain, as the binary prints it. Heavy work runs with
-//! the GIL released; a progress callback re-acquires it only to call back.
+//! Every error in the inputs is a Python `ValueError` (a `TypeError` for a
+//! wrong type) whose message names the argument and carries the library
+//! error's whole cause chain, as the binary prints it. Sizes the binary
+//! refuses are refused before anything is allocated.
+//!
+//! Long runs (`simulate`, `fit`, `diagnose`, `ladder`, `predict`) run on a
+//! thread of their own with the GIL released, while the calling thread
+//! checks for signals every [`POLL`]: Ctrl-C raises `KeyboardInterrupt`
+//! within a fraction of a second ([`interruptible`]). A progress callback
+//! takes the GIL only to call back; an exception it raises ends the run and
+//! is raised from the call.
 
 use std::collections::BTreeMap;
 use std::error::Error as StdError;
+use std::panic::{self, AssertUnwindSafe};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc::{self, RecvTimeoutError};
+use std::sync::{Arc, Mutex, PoisonError};
+use std::time::Duration;
 
-use hbis::data::{synthesize as synth, Aligned, Record};
+use hbis::data::record::check_size;
+use hbis::data::{limits, synthesize as synth, Aligned, Record, MAX_SAMPLES};
 use hbis::inference::ensemble::Moves;
 use hbis::inference::map::MapSettings;
 use hbis::inference::sample::{Progress, SampleSettings};
 use hbis::inference::{Noise, Posterior};
+use hbis::model::response::grid_len;
 use hbis::model::{ForwardModel, Model, Params, Registry, Response, SimOptions};
 use hbis::study::criticize::{self, Setup};
 use hbis::study::outputs::{fit_report, ChainOptions, FitRun};
 use hbis::study::{fit_record, FitOptions};
 use numpy::ndarray::{Array2, Array3};
-use numpy::{IntoPyArray, PyArray1, PyArray2, PyArray3, PyReadonlyArray1};
-use pyo3::exceptions::PyValueError;
+use numpy::{
+    IntoPyArray, PyArray1, PyArray2, PyArray3, PyArrayMethods, PyUntypedArray,
+    PyUntypedArrayMethods,
+};
+use pyo3::exceptions::{PyOverflowError, PyRuntimeError, PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use rand::{rngs::StdRng, SeedableRng};
 
@@ -32,6 +50,293 @@ fn err(e: impl StdError) -> PyErr {
 
 fn value_error(msg: impl Into<String>) -> PyErr {
     PyValueError::new_err(msg.into())
+}
+
+/// How often the calling thread checks for signals while a run works.
+const POLL: Duration = Duration::from_millis(50);
+
+/// Stack of a run's thread: a main thread's (the library's recursion
+/// depth was only ever tried on one).
+const RUN_STACK: usize = 8 << 20;
+
+/// The unwind payload that ends a run the caller has given up on (Ctrl-C
+/// or a failing callback). `resume_unwind` does not call the panic hook,
+/// so nothing is printed.
+struct Abandoned;
+
+/// Shared between a run's thread and the caller: whether the caller gave
+/// up, and the exception a callback raised.
+#[derive(Clone, Default)]
+struct Run {
+    abandoned: Arc<AtomicBool>,
+    raised: Arc<Mutex<Option<PyErr>>>,
+}
+
+impl Run {
+    fn give_up(&self) {
+        self.abandoned.store(true, Ordering::SeqCst);
+    }
+
+    /// Ends the run (unwinding out of the library from its progress hook)
+    /// when the caller has given up on it.
+    fn check(&self) {
+        if self.abandoned.load(Ordering::SeqCst) {
+            panic::resume_unwind(Box::new(Abandoned));
+        }
+    }
+
+    /// Calls back into Python with the GIL; an exception raised there ends
+    /// the run, and [`interruptible`] raises it from the call.
+    fn call_back<R>(&self, f: impl FnOnce(Python<'_>) -> PyResult<R>) {
+        self.check();
+        let raised = Python::attach(|py| {
+            if self.abandoned.load(Ordering::SeqCst) {
+                return None;
+            }
+            f(py).err()
+        });
+        if let Some(e) = raised {
+            *self.raised.lock().unwrap_or_else(PoisonError::into_inner) = Some(e);
+            self.give_up();
+        }
+        self.check();
+    }
+}
+
+/// Runs `work` on a thread of its own with the GIL released, while the
+/// calling thread checks for signals every [`POLL`]: a signal handler's
+/// exception (`KeyboardInterrupt` on Ctrl-C) is raised at once, and the run
+/// is told to stop at its next progress hook ([`Run::check`]); its result
+/// is dropped, so nothing of it is left. An exception raised by a callback
+/// ([`Run::call_back`]) is raised here; a panic in the library is re-raised
+/// on this thread (pyo3 makes it a `PanicException`, as before).
+fn interruptible<T: Send + 'static>(
+    py: Python<'_>,
+    run: &Run,
+    work: impl FnOnce() -> PyResult<T> + Send + 'static,
+) -> PyResult<T> {
+    let (tx, rx) = mpsc::channel();
+    std::thread::Builder::new()
+        .name("hbis-run".into())
+        .stack_size(RUN_STACK)
+        .spawn(move || {
+            let _ = tx.send(panic::catch_unwind(AssertUnwindSafe(work)));
+        })
+        .map_err(|e| PyRuntimeError::new_err(format!("cannot start a thread for the run: {e}")))?;
+    let mut rx = rx;
+    loop {
+        // The receiver goes into the GIL-free closure and comes back (it
+        // is not `Sync`, so it cannot be borrowed there).
+        let (got, back) = py.detach(move || (rx.recv_timeout(POLL), rx));
+        rx = back;
+        match got {
+            Ok(Ok(result)) => return result,
+            Ok(Err(payload)) if payload.is::<Abandoned>() => {
+                let raised = run
+                    .raised
+                    .lock()
+                    .unwrap_or_else(PoisonError::into_inner)
+                    .take();
+                return Err(raised.unwrap_or_else(|| {
+                    PyRuntimeError::new_err("the run was abandoned without a cause")
+                }));
+            }
+            Ok(Err(payload)) => panic::resume_unwind(payload),
+            Err(RecvTimeoutError::Timeout) => {
+                if let Err(e) = py.check_signals() {
+                    run.give_up();
+                    return Err(e);
+                }
+            }
+            Err(RecvTimeoutError::Disconnected) => {
+                return Err(PyRuntimeError::new_err(
+                    "the run's thread ended without a result",
+                ))
+            }
+        }
+    }
+}
+
+/// `obj`'s repr and type, for an error message.
+fn shown(obj: &Bound<'_, PyAny>) -> String {
+    let repr = obj
+        .repr()
+        .map_or_else(|_| "?".to_string(), |r| r.to_string());
+    let ty = obj
+        .get_type()
+        .name()
+        .map_or_else(|_| "?".to_string(), |n| n.to_string());
+    format!("{repr} ({ty})")
+}
+
+/// A whole-number argument in `0..=max`, or an error naming it: a
+/// `ValueError` for a negative or too large integer, a `TypeError` for
+/// anything else.
+fn whole(obj: &Bound<'_, PyAny>, name: &str, max: u64) -> PyResult<u64> {
+    let too_large = || {
+        value_error(format!(
+            "{name}: expected a whole number at most {max}, got {}",
+            shown(obj)
+        ))
+    };
+    match obj.extract::<u64>() {
+        Ok(v) if v <= max => Ok(v),
+        Ok(_) => Err(too_large()),
+        Err(e) if e.is_instance_of::<PyOverflowError>(obj.py()) => {
+            if obj.lt(0).unwrap_or(false) {
+                Err(value_error(format!(
+                    "{name}: expected a non-negative integer, got {}",
+                    shown(obj)
+                )))
+            } else {
+                Err(too_large())
+            }
+        }
+        Err(_) => Err(PyTypeError::new_err(format!(
+            "{name}: expected a non-negative integer, got {}",
+            shown(obj)
+        ))),
+    }
+}
+
+fn count(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<usize> {
+    // `max` is usize::MAX, so the value fits.
+    whole(obj, name, usize::MAX as u64).map(|v| v as usize)
+}
+
+fn maybe_count(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<Option<usize>> {
+    if obj.is_none() {
+        return Ok(None);
+    }
+    count(obj, name).map(Some)
+}
+
+// Extractors of the integer arguments (`#[pyo3(from_py_with = ...)]`), so
+// that every error names its argument.
+fn seed_arg(obj: &Bound<'_, PyAny>) -> PyResult<u64> {
+    whole(obj, "seed", u64::MAX)
+}
+fn k_arg(obj: &Bound<'_, PyAny>) -> PyResult<u32> {
+    whole(obj, "k", u32::MAX.into()).map(|v| v as u32)
+}
+fn n_arg(obj: &Bound<'_, PyAny>) -> PyResult<usize> {
+    count(obj, "n")
+}
+fn ensembles_arg(obj: &Bound<'_, PyAny>) -> PyResult<usize> {
+    count(obj, "ensembles")
+}
+fn max_steps_arg(obj: &Bound<'_, PyAny>) -> PyResult<usize> {
+    count(obj, "max_steps")
+}
+fn max_evals_arg(obj: &Bound<'_, PyAny>) -> PyResult<usize> {
+    count(obj, "max_evals")
+}
+fn walkers_arg(obj: &Bound<'_, PyAny>) -> PyResult<Option<usize>> {
+    maybe_count(obj, "walkers")
+}
+fn thin_arg(obj: &Bound<'_, PyAny>) -> PyResult<Option<usize>> {
+    maybe_count(obj, "thin")
+}
+
+/// A shape as Python prints it: `(3, 2)`, `(3,)`, `()`.
+fn shape_text(shape: &[usize]) -> String {
+    match shape {
+        [n] => format!("({n},)"),
+        _ => format!(
+            "({})",
+            shape
+                .iter()
+                .map(usize::to_string)
+                .collect::<Vec<_>>()
+                .join(", ")
+        ),
+    }
+}
+
+/// A 1-D float64 numpy array argument, or an error naming it and what it
+/// got: a `ValueError` for another shape, a `TypeError` for another dtype
+/// or a non-array.
+fn array1<'py>(obj: &Bound<'py, PyAny>, name: &str) -> PyResult<Bound<'py, PyArray1<f64>>> {
+    let Ok(any) = obj.cast::<PyUntypedArray>() else {
+        return Err(PyTypeError::new_err(format!(
+            "{name}: expected a 1-D numpy array of float64, got {}",
+            shown(obj)
+        )));
+    };
+    if any.ndim() != 1 {
+        return Err(value_error(format!(
+            "{name}: expected a 1-D array, got shape {}",
+            shape_text(any.shape())
+        )));
+    }
+    match obj.cast::<PyArray1<f64>>() {
+        Ok(a) => Ok(a.clone()),
+        Err(_) => Err(PyTypeError::new_err(format!(
+            "{name}: expected an array of float64, got dtype {}",
+            any.dtype()
+        ))),
+    }
+}
+
+fn t_arg<'py>(obj: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyArray1<f64>>> {
+    array1(obj, "t")
+}
+fn a_arg<'py>(obj: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyArray1<f64>>> {
+    array1(obj, "a")
+}
+fn ag_arg<'py>(obj: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyArray1<f64>>> {
+    array1(obj, "ag")
+}
+
+/// The values of a checked array (any strides).
+fn values(a: &Bound<'_, PyArray1<f64>>) -> PyResult<Vec<f64>> {
+    Ok(a.try_readonly()?.as_array().iter().copied().collect())
+}
+
+/// A record `(t, a)` within the reader's limit ([`MAX_SAMPLES`]), refused
+/// in its words before it is copied.
+fn record_arrays(
+    t: &Bound<'_, PyArray1<f64>>,
+    a: &Bound<'_, PyArray1<f64>>,
+) -> PyResult<(Vec<f64>, Vec<f64>)> {
+    check_size(t.len().max(a.len())).map_err(err)?;
+    Ok((values(t)?, values(a)?))
+}
+
+/// Refuses a grid too long to hold, before allocating it, in the words of
+/// `hbis simulate` ([`limits::grid`]); the number of samples otherwise.
+fn check_grid_size(dt: f64, duration: f64) -> PyResult<usize> {
+    limits::grid(dt, duration).map_err(err)?;
+    Ok(grid_len(dt, duration))
+}
+
+/// Refuses, before the MAP, a sampler the stretch move cannot run or whose
+/// chains could not fit in memory, in the words of `hbis fit`
+/// ([`limits::sampler`]).
+fn check_sampler_size(dim: usize, w: usize, ensembles: usize, max_steps: usize) -> PyResult<()> {
+    limits::sampler(dim, w, ensembles, max_steps).map_err(err)
+}
+
+/// A physical argument that must be a finite number > 0, refused in the
+/// words of `hbis predict` (`--mass -5: expected a finite number > 0`).
+fn check_positive(name: &str, v: f64) -> PyResult<()> {
+    if !(v.is_finite() && v > 0.0) {
+        return Err(value_error(format!(
+            "{name} {v}: expected a finite number > 0"
+        )));
+    }
+    Ok(())
+}
+
+/// A progress callback, checked to be callable before any work.
+fn check_callable(py: Python<'_>, progress: &Option<Py<PyAny>>, signature: &str) -> PyResult<()> {
+    match progress {
+        Some(cb) if !cb.bind(py).is_callable() => Err(PyTypeError::new_err(format!(
+            "progress: expected a callable {signature} or None, got {}",
+            shown(cb.bind(py))
+        ))),
+        _ => Ok(()),
+    }
 }
 
 /// The built-in catalog with the effect files `effects` loaded (as the
@@ -120,7 +425,7 @@ fn theta_of(model: &Model, params: &BTreeMap<String, f64>) -> PyResult<Vec<f64>>
 
 /// The parameters of Table 8.1, Solarino test `k` (3, 5, 6, 7 or 8), by name.
 #[pyfunction]
-fn table_8_1(k: u32) -> PyResult<BTreeMap<String, f64>> {
+fn table_8_1(#[pyo3(from_py_with = k_arg)] k: u32) -> PyResult<BTreeMap<String, f64>> {
     let p = Params::table_8_1(k).ok_or_else(|| {
         value_error(format!(
             "table_8_1({k}): expected a Solarino test of Table 8.1: 3, 5, 6, 7 or 8"
@@ -142,7 +447,8 @@ fn param_names(model: &str, effects: Vec<String>) -> PyResult<Vec<String>> {
 /// Simulates `model` from release: `(t, u, v, a)` at `t_i = i dt` over
 /// `duration` seconds. `a` is what an accelerometer records (output
 /// components included); `u` and `v` are the motion (closed form when the
-/// model has one, otherwise the numerical engine).
+/// model has one, otherwise the numerical engine). More samples than
+/// `hbis simulate` writes (1e7) are refused.
 #[pyfunction]
 #[pyo3(signature = (model, params, dt, duration, effects=Vec::new()))]
 #[allow(clippy::type_complexity)]
@@ -166,9 +472,9 @@ fn simulate<'py>(
             "dt = {dt}, duration = {duration}: expected dt > 0 and duration >= 0 (s)"
         )));
     }
-    let n = (duration / dt + 1e-9).floor() as usize + 1;
-    let (u, v, a) = py
-        .detach(|| -> Result<_, hbis::model::SimError> {
+    let n = check_grid_size(dt, duration)?;
+    let (u, v, a) = interruptible(py, &Run::default(), move || {
+        (|| -> Result<_, hbis::model::SimError> {
             let mut a = vec![0.0; n];
             m.accel_into(&theta, dt, &mut a)?;
             let (u, v) = if m.closed_form() {
@@ -187,8 +493,9 @@ fn simulate<'py>(
                 )
             };
             Ok((u, v, a))
-        })
-        .map_err(err)?;
+        })()
+        .map_err(err)
+    })?;
     let t: Vec<f64> = (0..n).map(|i| i as f64 * dt).collect();
     Ok((
         t.into_pyarray(py),
@@ -200,7 +507,8 @@ fn simulate<'py>(
 
 /// A synthetic record: `model` with `params` sampled `n` times at `dt`,
 /// plus white Gaussian noise of `noise` times the peak |a| (seeded).
-/// Returns `(t, a, clean, sigma)`.
+/// Returns `(t, a, clean, sigma)`. More samples than a record may hold
+/// ([`MAX_SAMPLES`]) are refused.
 #[pyfunction]
 #[pyo3(signature = (model, params, dt, n, noise, seed, effects=Vec::new()))]
 #[allow(clippy::type_complexity, clippy::too_many_arguments)]
@@ -209,9 +517,9 @@ fn synthesize<'py>(
     model: &str,
     params: BTreeMap<String, f64>,
     dt: f64,
-    n: usize,
+    #[pyo3(from_py_with = n_arg)] n: usize,
     noise: f64,
-    seed: u64,
+    #[pyo3(from_py_with = seed_arg)] seed: u64,
     effects: Vec<String>,
 ) -> PyResult<(
     Bound<'py, PyArray1<f64>>,
@@ -280,8 +588,8 @@ fn read_record<'py>(
 #[allow(clippy::type_complexity)]
 fn align<'py>(
     py: Python<'py>,
-    t: PyReadonlyArray1<'py, f64>,
-    a: PyReadonlyArray1<'py, f64>,
+    #[pyo3(from_py_with = t_arg)] t: Bound<'py, PyArray1<f64>>,
+    #[pyo3(from_py_with = a_arg)] a: Bound<'py, PyArray1<f64>>,
     t0: Option<f64>,
 ) -> PyResult<(
     Bound<'py, PyArray1<f64>>,
@@ -289,7 +597,8 @@ fn align<'py>(
     f64,
     String,
 )> {
-    let d = aligned(t.as_slice()?, a.as_slice()?, t0)?;
+    let (t, a) = record_arrays(&t, &a)?;
+    let d = aligned(&t, &a, t0)?;
     let times: Vec<f64> = (0..d.a.len()).map(|i| d.time(i)).collect();
     Ok((
         times.into_pyarray(py),
@@ -378,7 +687,10 @@ fn kept_arrays(
 
 /// Fits a record: the MAP (CMA-ES and polish), then, unless `map_only`,
 /// the posterior by the ensemble sampler with the binary's defaults.
-/// Same inputs and seed give the numbers `hbis fit` gives.
+/// Same inputs and seed give the numbers `hbis fit` gives. The fit runs on
+/// a thread of its own ([`interruptible`]): Ctrl-C raises
+/// `KeyboardInterrupt` at once, and an exception raised by `progress` ends
+/// the fit and is raised here.
 #[pyfunction]
 #[pyo3(signature = (
     t, a, model="trilinear+lcfm+viscous", noise="white", seed=1, t0=None,
@@ -390,31 +702,34 @@ fn kept_arrays(
 #[allow(clippy::too_many_arguments)]
 fn fit(
     py: Python<'_>,
-    t: PyReadonlyArray1<'_, f64>,
-    a: PyReadonlyArray1<'_, f64>,
+    #[pyo3(from_py_with = t_arg)] t: Bound<'_, PyArray1<f64>>,
+    #[pyo3(from_py_with = a_arg)] a: Bound<'_, PyArray1<f64>>,
     model: &str,
     noise: &str,
-    seed: u64,
+    #[pyo3(from_py_with = seed_arg)] seed: u64,
     t0: Option<f64>,
     map_only: bool,
-    ensembles: usize,
-    walkers: Option<usize>,
+    #[pyo3(from_py_with = ensembles_arg)] ensembles: usize,
+    #[pyo3(from_py_with = walkers_arg)] walkers: Option<usize>,
     tau_multiple: f64,
-    max_steps: usize,
+    #[pyo3(from_py_with = max_steps_arg)] max_steps: usize,
     ess: Option<f64>,
     moves: Option<&str>,
-    max_evals: usize,
+    #[pyo3(from_py_with = max_evals_arg)] max_evals: usize,
     evidence: bool,
     forces: Option<(f64, f64)>,
     design_target: Option<f64>,
-    thin: Option<usize>,
+    #[pyo3(from_py_with = thin_arg)] thin: Option<usize>,
     source: &str,
     progress: Option<Py<PyAny>>,
     effects: Vec<String>,
 ) -> PyResult<FitResult> {
+    check_callable(py, &progress, "progress(steps, target_steps, tau_max)")?;
     let m = parse_model(model, &effects)?;
     let noise_model = parse_noise(noise)?;
-    let (data, record_warnings) = aligned_with_warnings(t.as_slice()?, a.as_slice()?, t0)?;
+    let (t, a) = record_arrays(&t, &a)?;
+    let (data, record_warnings) = aligned_with_warnings(&t, &a, t0)?;
+    drop((t, a));
     if thin == Some(0) {
         return Err(value_error(
             "thin = 0: expected a whole number of steps >= 1 (1 keeps every step)",
@@ -446,6 +761,10 @@ fn fit(
         let mv = Moves::parse(text).map_err(|e| value_error(format!("moves `{text}`: {e}")))?;
         sample = sample.with_moves(mv);
     }
+    if !map_only {
+        let dim = Posterior::<Model>::names_for(&m, noise_model).len();
+        check_sampler_size(dim, sample.walkers_for(dim), ensembles, max_steps)?;
+    }
     let options = FitOptions {
         seed,
         map: MapSettings::default()
@@ -459,54 +778,56 @@ fn fit(
         design_target,
     };
     let priors = Posterior::default_priors(&m, noise_model);
-    let fitted = py
-        .detach(|| {
-            let mut report = |p: Progress| {
-                if let Some(cb) = &progress {
-                    Python::attach(|py| {
-                        // A failing callback must not stop the fit.
-                        let _ = cb.call1(py, (p.steps, p.target_steps.max(p.steps), p.tau_max));
-                    });
-                }
-            };
-            fit_record(m, data, Some(priors), noise_model, &options, &mut report)
+    let source = source.to_string();
+    let run = Run::default();
+    let hook = run.clone();
+    interruptible(py, &run, move || {
+        let mut report = |p: Progress| {
+            hook.check();
+            if let Some(cb) = &progress {
+                hook.call_back(|py| {
+                    cb.call1(py, (p.steps, p.target_steps.max(p.steps), p.tau_max))
+                });
+            }
+        };
+        let fitted =
+            fit_record(m, data, Some(priors), noise_model, &options, &mut report).map_err(err)?;
+        let every = match (&fitted.sample, thin) {
+            (Some(_), Some(k)) => k,
+            (Some(s), None) => hbis::report::cmdstan::auto_thin(s),
+            (None, _) => 1,
+        };
+        let run = FitRun {
+            source,
+            seed,
+            noise: noise_model,
+            record_warnings,
+            chains: ChainOptions {
+                thin,
+                ..Default::default()
+            },
+        };
+        let report = fit_report(
+            &fitted,
+            &run,
+            Vec::new(),
+            fitted.sample.as_ref().map(|_| every),
+        );
+        let report_json = serde_json::to_string(&report).map_err(err)?;
+        let (draws, log_prob, physical) = if fitted.sample.is_some() {
+            let (d, l, p) = kept_arrays(&fitted, every, forces)?;
+            (Some(d), Some(l), p)
+        } else {
+            (None, None, None)
+        };
+        Ok(FitResult {
+            names: fitted.names().to_vec(),
+            report_json,
+            thin: every,
+            draws,
+            log_prob,
+            physical,
         })
-        .map_err(err)?;
-    let every = match (&fitted.sample, thin) {
-        (Some(_), Some(k)) => k,
-        (Some(s), None) => hbis::report::cmdstan::auto_thin(s),
-        (None, _) => 1,
-    };
-    let run = FitRun {
-        source: source.to_string(),
-        seed,
-        noise: noise_model,
-        record_warnings,
-        chains: ChainOptions {
-            thin,
-            ..Default::default()
-        },
-    };
-    let report = fit_report(
-        &fitted,
-        &run,
-        Vec::new(),
-        fitted.sample.as_ref().map(|_| every),
-    );
-    let report_json = serde_json::to_string(&report).map_err(err)?;
-    let (draws, log_prob, physical) = if fitted.sample.is_some() {
-        let (d, l, p) = kept_arrays(&fitted, every, forces)?;
-        (Some(d), Some(l), p)
-    } else {
-        (None, None, None)
-    };
-    Ok(FitResult {
-        names: fitted.names().to_vec(),
-        report_json,
-        thin: every,
-        draws,
-        log_prob,
-        physical,
     })
 }
 
@@ -540,56 +861,61 @@ fn criticism_setup(
 #[allow(clippy::too_many_arguments)]
 fn diagnose(
     py: Python<'_>,
-    t: PyReadonlyArray1<'_, f64>,
-    a: PyReadonlyArray1<'_, f64>,
+    #[pyo3(from_py_with = t_arg)] t: Bound<'_, PyArray1<f64>>,
+    #[pyo3(from_py_with = a_arg)] a: Bound<'_, PyArray1<f64>>,
     model: &str,
     noise: &str,
-    seed: u64,
+    #[pyo3(from_py_with = seed_arg)] seed: u64,
     t0: Option<f64>,
     effects: Vec<String>,
     candidates: Option<Vec<String>>,
     exclude: Vec<String>,
     source: &str,
 ) -> PyResult<String> {
-    let (t, a) = (t.as_slice()?.to_vec(), a.as_slice()?.to_vec());
+    let (t, a) = record_arrays(&t, &a)?;
     let registry = criticism_registry(&effects, candidates, &exclude)?;
-    py.detach(|| -> PyResult<String> {
-        let s = criticism_setup(&registry, &t, &a, model, noise, seed, t0, source)?;
+    let (model, noise, source) = (model.to_string(), noise.to_string(), source.to_string());
+    interruptible(py, &Run::default(), move || {
+        let s = criticism_setup(&registry, &t, &a, &model, &noise, seed, t0, &source)?;
         let d = criticize::diagnose(&registry, &s, &MapSettings::default()).map_err(err)?;
         serde_json::to_string(&d.report).map_err(err)
     })
 }
 
 /// `hbis ladder` on arrays: `ladder.json`'s text, the same runner's report;
-/// `progress(step_index, model)` after each step.
+/// `progress(step_index, model)` after each step (an exception it raises
+/// ends the ladder and is raised here).
 #[pyfunction]
 #[pyo3(signature = (t, a, model, noise="white", seed=1, t0=None, max_steps=6, progress=None, effects=Vec::new(), candidates=None, exclude=Vec::new(), source="array"))]
 #[allow(clippy::too_many_arguments)]
 fn ladder(
     py: Python<'_>,
-    t: PyReadonlyArray1<'_, f64>,
-    a: PyReadonlyArray1<'_, f64>,
+    #[pyo3(from_py_with = t_arg)] t: Bound<'_, PyArray1<f64>>,
+    #[pyo3(from_py_with = a_arg)] a: Bound<'_, PyArray1<f64>>,
     model: &str,
     noise: &str,
-    seed: u64,
+    #[pyo3(from_py_with = seed_arg)] seed: u64,
     t0: Option<f64>,
-    max_steps: usize,
+    #[pyo3(from_py_with = max_steps_arg)] max_steps: usize,
     progress: Option<Py<PyAny>>,
     effects: Vec<String>,
     candidates: Option<Vec<String>>,
     exclude: Vec<String>,
     source: &str,
 ) -> PyResult<String> {
-    let (t, a) = (t.as_slice()?.to_vec(), a.as_slice()?.to_vec());
+    check_callable(py, &progress, "progress(step_index, model)")?;
+    let (t, a) = record_arrays(&t, &a)?;
     let registry = criticism_registry(&effects, candidates, &exclude)?;
-    py.detach(|| -> PyResult<String> {
-        let s = criticism_setup(&registry, &t, &a, model, noise, seed, t0, source)?;
+    let (model, noise, source) = (model.to_string(), noise.to_string(), source.to_string());
+    let run = Run::default();
+    let hook = run.clone();
+    interruptible(py, &run, move || {
+        let s = criticism_setup(&registry, &t, &a, &model, &noise, seed, t0, &source)?;
         let mut k = 0usize;
         let mut on_step = |step: &hbis::criticism::Step| {
+            hook.check();
             if let Some(cb) = &progress {
-                Python::attach(|py| {
-                    let _ = cb.call1(py, (k, step.model.clone()));
-                });
+                hook.call_back(|py| cb.call1(py, (k, step.model.clone())));
             }
             k += 1;
         };
@@ -607,11 +933,12 @@ fn ladder(
 
 /// A synthetic Kanai-Tajimi ground motion (firm soil by default) of
 /// `seed`, scaled to `pga` (m/s^2): the ground acceleration at `i dt`.
+/// The library refuses more samples than a motion may hold.
 #[pyfunction]
 #[pyo3(signature = (seed, pga = 0.3 * 9.80665, duration = 40.0, dt = 0.01, f_g = 2.5, zeta_g = 0.6))]
 fn kanai_tajimi<'py>(
     py: Python<'py>,
-    seed: u64,
+    #[pyo3(from_py_with = seed_arg)] seed: u64,
     pga: f64,
     duration: f64,
     dt: f64,
@@ -666,20 +993,22 @@ fn read_motion<'py>(
 /// ground acceleration `ag` (m/s^2, step `dt`) from rest, `tail` seconds
 /// after: per set `(peak_displacement, residual_displacement,
 /// peak_base_shear, peak_total_acceleration)` as an `(n, 4)` array, and
-/// the summary as `predict.json` holds it (JSON text).
+/// the summary as `predict.json` holds it (JSON text). `mass` (t, every
+/// set) or `masses` (one per set) give the base shear in kN.
 #[pyfunction]
-#[pyo3(signature = (model, thetas, dt, ag, tail = 20.0, capacity = None, masses = None, effects = Vec::new()))]
+#[pyo3(signature = (model, thetas, dt, ag, tail = 20.0, capacity = None, masses = None, effects = Vec::new(), mass = None))]
 #[allow(clippy::too_many_arguments)]
 fn predict<'py>(
     py: Python<'py>,
     model: &str,
     thetas: Vec<Vec<f64>>,
     dt: f64,
-    ag: PyReadonlyArray1<'py, f64>,
+    #[pyo3(from_py_with = ag_arg)] ag: Bound<'py, PyArray1<f64>>,
     tail: f64,
     capacity: Option<f64>,
     masses: Option<Vec<f64>>,
     effects: Vec<String>,
+    mass: Option<f64>,
 ) -> PyResult<(Bound<'py, PyArray2<f64>>, String)> {
     let m = parse_model(model, &effects)?;
     let width = m.layout().names().len();
@@ -691,20 +1020,36 @@ fn predict<'py>(
             m.layout().names().join(", ")
         )));
     }
-    if let Some(ms) = &masses {
-        if ms.len() != thetas.len() {
-            return Err(value_error(format!(
-                "masses: {} values for {} parameter sets",
-                ms.len(),
-                thetas.len()
-            )));
+    let masses = match (mass, masses) {
+        (Some(_), Some(_)) => {
+            return Err(value_error(
+                "mass and masses: give one mass for every set or one per set, not both",
+            ))
         }
-    }
+        (Some(w), None) => {
+            check_positive("mass", w)?;
+            Some(vec![w; thetas.len()])
+        }
+        (None, Some(ms)) => {
+            if ms.len() != thetas.len() {
+                return Err(value_error(format!(
+                    "masses: {} values for {} parameter sets",
+                    ms.len(),
+                    thetas.len()
+                )));
+            }
+            for (i, w) in ms.iter().enumerate() {
+                check_positive(&format!("masses[{i}]"), *w)?;
+            }
+            Some(ms)
+        }
+        (None, None) => None,
+    };
     for (i, t) in thetas.iter().enumerate() {
         m.check(t)
             .map_err(|e| value_error(format!("thetas row {i}: {}", chain(&e))))?;
     }
-    let ag = ag.as_slice()?.to_vec();
+    let ag = values(&ag)?;
     let draws: Vec<hbis::predict::Draw> = thetas
         .into_iter()
         .enumerate()
@@ -714,14 +1059,15 @@ fn predict<'py>(
             origin: None,
         })
         .collect();
+    let n_draws = draws.len();
     let opts = hbis::predict::PredictOptions {
         tail,
         capacity,
         band_points: 0,
     };
-    let p = py
-        .detach(|| hbis::predict::predict(&m, &draws, dt, &ag, &opts))
-        .map_err(err)?;
+    let p = interruptible(py, &Run::default(), move || {
+        hbis::predict::predict(&m, &draws, dt, &ag, &opts).map_err(err)
+    })?;
     let mut rows = Array2::<f64>::zeros((p.outcomes.len(), 4));
     for (i, o) in p.outcomes.iter().enumerate() {
         let k = &o.peaks;
@@ -731,7 +1077,7 @@ fn predict<'py>(
         rows[[i, 3]] = k.peak_total_acceleration;
     }
     let json = serde_json::json!({
-        "draws": draws.len(),
+        "draws": n_draws,
         "summary": p.summary,
         "p_exceed_capacity": p.p_exceed_capacity,
         "extrapolation": p.extrapolation,

@@ -345,3 +345,257 @@ def test_an_effect_file_fits_as_the_binary_fits_it(tmp_path):
         hbis.simulate(model, p, 0.005, 1.0, effects=[str(tmp_path / "nope.toml")])
     with pytest.raises(ValueError, match="candidates: .*maxwel"):
         hbis.diagnose(syn, "trilinear+lcfm+viscous", candidates=["maxwel"])
+
+
+# Bad input, sizes and interruption (issue 37): every case is a Python
+# exception naming its argument, never an abort, a hang or a wrong result.
+
+
+def _raised_in_a_child(code, cwd):
+    """What `code` (one statement) raises in a fresh interpreter, as
+    "Type: message", so that an abort cannot take the suite with it."""
+    import sys
+
+    script = (
+        "import hbis, numpy as np\n"
+        "MODEL = 'trilinear+lcfm+viscous'\n"
+        "try:\n"
+        f"    {code}\n"
+        "except Exception as e:\n"
+        "    print(f'{type(e).__name__}: {e}')\n"
+        "else:\n"
+        "    print('no error')\n"
+    )
+    o = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=120, cwd=cwd)
+    assert o.returncode == 0, f"the interpreter died (exit {o.returncode}): {o.stderr[-2000:]}"
+    return o.stdout.strip()
+
+
+@pytest.mark.parametrize(
+    "code, message",
+    [
+        # The binary's `simulate` limit, in its words.
+        ("hbis.simulate(MODEL, hbis.table_8_1(5), 1e-12, 1e3)",
+         r"ValueError: duration 1000 s at dt 0.000000000001 s makes 1.000e15 samples, more than the limit of 1e7: "
+         r"use a larger dt or a shorter duration"),
+        # The library's limit on a ground motion (MAX_SAMPLES).
+        ("hbis.ground_motion(duration=1e13, dt=0.01)", r"ValueError: .*more than the 2000000 samples"),
+        # A record may hold MAX_SAMPLES samples (the binary's record reader).
+        ("hbis.synthesize(MODEL, hbis.table_8_1(5), n=10**15)",
+         r"ValueError: `n` = 1000000000000000: more than the 2,000,000 samples a record may hold"),
+        ("hbis.synthesize(MODEL, hbis.table_8_1(5), dt=1e308, n=100)",
+         r"ValueError: `\(n - 1\) dt` = inf: the last sample's time must be a finite number"),
+        # The binary's limit on the chains kept in memory, before the MAP.
+        ("hbis.fit(hbis.synthesize(MODEL, hbis.table_8_1(5), n=201), walkers=10**9)",
+         r"ValueError: walkers 1000000000 x ensembles 2 x max_steps 20000 would keep [0-9.]+ GiB of chains in memory, "
+         r"more than the limit of 8 GiB"),
+        ("hbis.fit(hbis.synthesize(MODEL, hbis.table_8_1(5), n=201), walkers=4)",
+         r"ValueError: walkers 4: the model has 9 parameters and the stretch move needs at least 2 x 9 = 18 walkers per ensemble$"),
+    ],
+)
+def test_huge_sizes_are_refused_as_the_binary_refuses_them(code, message, tmp_path):
+    import re
+
+    got = _raised_in_a_child(code, tmp_path)
+    assert re.match(message, got), got
+
+
+@pytest.mark.parametrize("npts", ["1000000000000000", "9000000000000000000"])
+def test_an_at2_header_claiming_huge_npts_is_a_value_error(npts, tmp_path):
+    path = tmp_path / "m.AT2"
+    path.write_text(f"PEER\nevent\nACCELERATION TIME SERIES IN UNITS OF G\nNPTS= {npts}, DT= .0100 SEC\n0.1 0.2 0.3\n")
+    got = _raised_in_a_child(f"hbis.read_motion({str(path)!r})", tmp_path)
+    assert got.startswith("ValueError: ") and "NPTS" in got, got
+
+
+def test_the_record_size_limit_is_the_binary_readers(tmp_path):
+    """`Record` and `fit` refuse more than MAX_SAMPLES (2,000,000) samples
+    in the words of the binary's reader, before any work; MAX_SAMPLES
+    samples are a record."""
+    limit = 2_000_000
+    t = np.arange(limit + 1) * 0.005
+    a = np.sin(7.0 * t) * np.exp(-0.05 * t)
+    words = (
+        f"row {limit + 2}: the record has {limit + 1} samples, more than the limit of {limit} "
+        r"\(MAX_SAMPLES: 10,000 s at 200 Hz\)"
+    )
+    with pytest.raises(ValueError, match=words):
+        hbis.Record(t, a)
+    with pytest.raises(ValueError, match=words):
+        hbis.fit((t, a), map_only=True, max_evals=100)
+    assert len(hbis.Record(t[:limit], a[:limit])) == limit
+    # And the fewest samples after the release (MIN_SAMPLES).
+    with pytest.raises(ValueError, match="19 samples, need at least 20"):
+        hbis.Record(t[:19], a[:19], t0=0.0)
+
+
+def test_a_progress_callbacks_exception_ends_the_run_and_is_raised():
+    rec = hbis.synthesize(MODEL, hbis.table_8_1(5), dt=0.005, n=1201, noise=0.015, seed=11)
+    calls = []
+
+    class Stop(Exception):
+        pass
+
+    stop = Stop("enough")
+
+    def progress(steps, target, tau):
+        calls.append(steps)
+        raise stop
+
+    with pytest.raises(Stop) as e:
+        hbis.fit(rec, MODEL, seed=2, progress=progress, **QUICK)
+    # The original exception object, raised at the first call: the fit stopped there.
+    assert e.value is stop and calls == [0]
+    steps = []
+
+    def on_step(k, model):
+        steps.append(k)
+        raise stop
+
+    syn = hbis.synthesize("bilinear+coulomb+viscous", _bilinear(), dt=0.01, n=301, noise=0.01, seed=3)
+    with pytest.raises(Stop):
+        hbis.ladder(syn, "bilinear+coulomb", seed=5, max_steps=2, progress=on_step)
+    assert steps == [0]
+
+
+@pytest.mark.parametrize("call", [
+    lambda rec: hbis.fit(rec, MODEL, progress=5, map_only=True),
+    lambda rec: hbis.ladder(rec, "bilinear+coulomb", progress="steps"),
+])
+def test_a_progress_that_is_not_callable_is_a_type_error_naming_it(call):
+    rec = hbis.synthesize(MODEL, hbis.table_8_1(5), dt=0.005, n=401, seed=1)
+    t = time.monotonic()
+    with pytest.raises(TypeError, match=r"^progress: expected a callable progress\(.*\) or None, got "):
+        call(rec)
+    # Refused before any work.
+    assert time.monotonic() - t < 0.5
+
+
+_INTERRUPTED = """
+import sys, time
+import hbis
+rec = hbis.synthesize("trilinear+lcfm+viscous", hbis.table_8_1(5), n=int(sys.argv[1]), seed=11)
+def progress(steps, target, tau):
+    if steps == 0:
+        print("sampling", flush=True)
+print("ready", flush=True)
+try:
+    f = hbis.fit(rec, seed=4, tau_multiple=1000.0, progress=progress if sys.argv[2] == "yes" else None)
+except KeyboardInterrupt:
+    print("interrupted", flush=True)
+else:
+    print("finished", flush=True)
+"""
+
+
+@pytest.mark.parametrize("phase, n, callback", [("ready", 1_000_001, "no"), ("sampling", 20_001, "yes")])
+def test_ctrl_c_during_a_fit_raises_keyboard_interrupt_at_once(phase, n, callback, tmp_path):
+    """SIGINT during the MAP of a long record (no callback) or during the
+    sampler (with a progress callback): KeyboardInterrupt within a second,
+    no output left behind."""
+    import signal
+    import sys
+
+    p = subprocess.Popen([sys.executable, "-c", _INTERRUPTED, str(n), callback], cwd=tmp_path,
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        lines = []
+        while phase not in lines:
+            line = p.stdout.readline()
+            assert line, f"the script ended early: {lines} {p.stderr.read()}"
+            lines.append(line.strip())
+        time.sleep(2.0 if phase == "ready" else 0.5)
+        p.send_signal(signal.SIGINT)
+        sent = time.monotonic()
+        timer = threading.Timer(30.0, p.kill)
+        timer.start()
+        try:
+            last = p.stdout.readline().strip()
+            if last == "sampling":
+                last = p.stdout.readline().strip()
+        finally:
+            timer.cancel()
+        delay = time.monotonic() - sent
+        assert last == "interrupted", (last, p.stderr.read())
+        assert delay < 1.0, f"KeyboardInterrupt {delay:.2f} s after SIGINT"
+        assert p.wait(timeout=30) == 0
+    finally:
+        if p.poll() is None:
+            p.kill()
+            p.wait()
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_physical_arguments_are_refused_naming_them():
+    t, ag = hbis.ground_motion(seed=2, duration=10.0)
+    p = hbis.table_8_1(5)
+    for mass, shown in ((-5.0, "-5"), (0.0, "0"), (float("nan"), "NaN"), (float("inf"), "inf")):
+        with pytest.raises(ValueError, match=f"^mass {shown}: expected a finite number > 0$"):
+            hbis.predict(p, ag, 0.01, mass=mass)
+    with pytest.raises(ValueError, match=r"^masses\[1\] -1: expected a finite number > 0"):
+        hbis._hbis.predict(MODEL, [list(p.values())] * 2, 0.01, ag, masses=[1.0, -1.0])
+    with pytest.raises(ValueError, match=r"capacity -0.1 m: expected a finite displacement > 0"):
+        hbis.predict(p, ag, 0.01, capacity=-0.1)
+    with pytest.raises(ValueError, match="pga must be > 0"):
+        hbis.ground_motion(pga=-1.0)
+    # A positive mass still gives the base shear in kN.
+    kn = hbis.predict(p, ag, 0.01, mass=5.0).summary["peak_base_shear_kn"]["q50"]
+    assert kn > 0.0
+
+
+@pytest.mark.parametrize(
+    "call, error, message",
+    [
+        (lambda r: hbis.synthesize(MODEL, hbis.table_8_1(5), seed=-1), ValueError,
+         "seed: expected a non-negative integer, got -1 (int)"),
+        (lambda r: hbis.synthesize(MODEL, hbis.table_8_1(5), n=-1), ValueError,
+         "n: expected a non-negative integer, got -1 (int)"),
+        (lambda r: hbis.fit(r, walkers=-3), ValueError, "walkers: expected a non-negative integer, got -3 (int)"),
+        (lambda r: hbis.fit(r, walkers=2.5), TypeError, "walkers: expected a non-negative integer, got 2.5 (float)"),
+        (lambda r: hbis.fit(r, ensembles=-1), ValueError, "ensembles: expected a non-negative integer, got -1"),
+        (lambda r: hbis.fit(r, max_steps=-1), ValueError, "max_steps: expected a non-negative integer, got -1"),
+        (lambda r: hbis.fit(r, max_evals=-1), ValueError, "max_evals: expected a non-negative integer, got -1"),
+        (lambda r: hbis.fit(r, thin=-2), ValueError, "thin: expected a non-negative integer, got -2"),
+        (lambda r: hbis.fit(r, seed=2**64), ValueError,
+         "seed: expected a whole number at most 18446744073709551615, got 18446744073709551616"),
+        (lambda r: hbis.ladder(r, MODEL, max_steps=-1), ValueError, "max_steps: expected a non-negative integer"),
+        (lambda r: hbis.diagnose(r, MODEL, seed=-7), ValueError, "seed: expected a non-negative integer, got -7"),
+        (lambda r: hbis.table_8_1(-1), ValueError, "k: expected a non-negative integer, got -1"),
+        (lambda r: hbis.ground_motion(seed=-1), ValueError, "seed: expected a non-negative integer, got -1"),
+    ],
+)
+def test_a_bad_integer_names_its_argument(call, error, message):
+    rec = hbis.synthesize(MODEL, hbis.table_8_1(5), dt=0.005, n=401, seed=1)
+    with pytest.raises(error, match="^" + message.replace("(", r"\(").replace(")", r"\)")):
+        call(rec)
+
+
+@pytest.mark.parametrize(
+    "call, error, message",
+    [
+        (lambda: hbis.Record(np.zeros((3, 2)), np.zeros((3, 2))), ValueError,
+         r"^t: expected a 1-D array, got shape \(3, 2\)"),
+        (lambda: hbis.fit((np.arange(40.0), np.ones((40, 1)))), ValueError,
+         r"^a: expected a 1-D array, got shape \(40, 1\)"),
+        (lambda: hbis._hbis.diagnose(np.zeros(()), np.zeros(3), MODEL), ValueError,
+         r"^t: expected a 1-D array, got shape \(\)"),
+        (lambda: hbis.predict(hbis.table_8_1(5), np.zeros((5, 2)), 0.01), ValueError,
+         r"^ag: expected a 1-D array, got shape \(5, 2\)"),
+        (lambda: hbis._hbis.align([0.0, 1.0], np.zeros(2)), TypeError,
+         r"^t: expected a 1-D numpy array of float64, got \[0.0, 1.0\] \(list\)"),
+        (lambda: hbis._hbis.align(np.arange(30.0), np.arange(30)), TypeError,
+         r"^a: expected an array of float64, got dtype int64"),
+    ],
+)
+def test_a_bad_array_names_its_argument_and_shape(call, error, message):
+    with pytest.raises(error, match=message):
+        call()
+
+
+def test_a_strided_array_is_read_as_it_is_seen():
+    rec = hbis.synthesize(MODEL, hbis.table_8_1(5), dt=0.005, n=801, seed=1)
+    t2 = np.repeat(rec.t, 2)[::2]
+    a2 = np.stack([rec.a, rec.a], axis=1)[:, 0]
+    assert not a2.flags["C_CONTIGUOUS"]
+    aligned = hbis._hbis.align(t2, a2)
+    np.testing.assert_array_equal(aligned[1], rec.aligned_a)

@@ -175,7 +175,7 @@ pub fn run(a: Args) -> Result<()> {
     sample = sample.with_moves(moves);
     if !a.map_only {
         let dim = Posterior::<Model>::names_for(&model, noise).len();
-        check_sampler_size(dim, sample.walkers_for(dim), a.ensembles, a.max_steps)?;
+        hbis::data::limits::sampler(dim, sample.walkers_for(dim), a.ensembles, a.max_steps)?;
     }
     let options = FitOptions {
         seed: a.seed,
@@ -273,30 +273,6 @@ pub fn drop_checkpoint(dir: &Path) {
             dir.display()
         );
     }
-}
-
-/// Most memory the chains of one run may take (bytes): 8 GiB.
-pub const MAX_CHAIN_BYTES: f64 = 8.0 * 1024.0 * 1024.0 * 1024.0;
-
-/// Refuses, before the MAP, a sampler the stretch move cannot run (fewer
-/// than `2 dim` walkers) or whose chains could not fit in memory.
-fn check_sampler_size(dim: usize, w: usize, ensembles: usize, max_steps: usize) -> Result<()> {
-    if w < 2 * dim {
-        anyhow::bail!(
-            "--walkers {w}: the model has {dim} parameters and the stretch move needs at least 2 x {dim} = {} walkers per ensemble",
-            2 * dim
-        );
-    }
-    // Positions and log-densities of every step of every walker.
-    let bytes = w as f64 * ensembles as f64 * max_steps as f64 * (dim + 1) as f64 * 8.0;
-    if bytes > MAX_CHAIN_BYTES {
-        anyhow::bail!(
-            "--walkers {w} x --ensembles {ensembles} x --max-steps {max_steps} would keep {:.1} GiB of chains in memory, more than the limit of {:.0} GiB: lower one of them",
-            bytes / 1024f64.powi(3),
-            MAX_CHAIN_BYTES / 1024f64.powi(3)
-        );
-    }
-    Ok(())
 }
 
 /// Runs the study with a progress bar on stderr when it is a terminal.

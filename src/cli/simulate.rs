@@ -92,7 +92,7 @@ fn check_grid(a: &Args) -> Result<()> {
         );
     }
     distinct_outputs(a)?;
-    check_grid_size(a.dt, a.duration)
+    Ok(hbis::data::limits::grid(a.dt, a.duration)?)
 }
 
 /// A model with components beyond the core: its motion by the engine the
@@ -140,20 +140,6 @@ fn run_model(a: &Args, model: &Model) -> Result<()> {
         "{}: {n} samples; peak |u| {peak:.6} m; last moving sample at t = {moving:.3} s",
         model.name()
     )?;
-    Ok(())
-}
-
-/// Most samples `simulate` writes: 10 million rows (about 600 MB of CSV).
-pub const MAX_SAMPLES: f64 = 1e7;
-
-/// Refuses a grid too long to hold before allocating it.
-fn check_grid_size(dt: f64, duration: f64) -> Result<()> {
-    let n = duration / dt + 1.0;
-    if n > MAX_SAMPLES {
-        anyhow::bail!(
-            "--duration {duration} s at --dt {dt} s makes {n:.3e} samples, more than the limit of {MAX_SAMPLES:.0e}: use a larger --dt or a shorter --duration"
-        );
-    }
     Ok(())
 }
 

@@ -2,6 +2,7 @@
 //! warnings, and synthetic records for tests and studies.
 
 pub mod ground_motion;
+pub mod limits;
 pub mod record;
 pub mod strict_json;
 pub mod synthetic;

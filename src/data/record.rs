@@ -293,8 +293,23 @@ impl Aligned {
     }
 }
 
+/// Refuses a record of `n` samples, more than [`MAX_SAMPLES`], in the words
+/// of the file reader (rows numbered from 2): a caller holding arrays checks
+/// before copying them.
+pub fn check_size(n: usize) -> Result<(), RecordError> {
+    if n > MAX_SAMPLES {
+        return Err(RecordError::TooMany {
+            row: MAX_SAMPLES + 2,
+            found: n,
+            max: MAX_SAMPLES,
+        });
+    }
+    Ok(())
+}
+
 impl Record {
-    /// A record from time and acceleration vectors (rows numbered from 2).
+    /// A record from time and acceleration vectors (rows numbered from 2;
+    /// at most [`MAX_SAMPLES`]).
     pub fn new(t: Vec<f64>, a: Vec<f64>) -> Result<Self, RecordError> {
         if t.len() != a.len() {
             return Err(RecordError::Lengths {
@@ -302,6 +317,7 @@ impl Record {
                 a: a.len(),
             });
         }
+        check_size(t.len())?;
         let rows = (0..t.len()).map(|i| i + 2).collect();
         let rec = Self { t, a, rows };
         rec.validate()?;

@@ -8,7 +8,7 @@
 use rand::Rng;
 use rand_distr::{Distribution, Normal};
 
-use super::record::Record;
+use super::record::{Record, MAX_SAMPLES};
 use crate::model::{ForwardModel, SimError};
 
 /// A synthetic record with the truth it was made from.
@@ -41,6 +41,21 @@ pub fn synthesize<M: ForwardModel + ?Sized, R: Rng + ?Sized>(
             requirement: "must be a finite number >= 0",
         });
     }
+    if n > MAX_SAMPLES {
+        return Err(SimError::Grid {
+            name: "n",
+            value: n as f64,
+            requirement: "more than the 2,000,000 samples a record may hold (MAX_SAMPLES: 10,000 s at 200 Hz)",
+        });
+    }
+    let last = dt * n.saturating_sub(1) as f64;
+    if dt.is_finite() && !last.is_finite() {
+        return Err(SimError::Grid {
+            name: "(n - 1) dt",
+            value: last,
+            requirement: "the last sample's time must be a finite number",
+        });
+    }
     let mut clean = vec![0.0; n];
     model.accel_into(theta, dt, &mut clean)?;
     if let Some(i) = clean.iter().position(|a| !a.is_finite()) {
@@ -59,7 +74,12 @@ pub fn synthesize<M: ForwardModel + ?Sized, R: Rng + ?Sized>(
         0.0
     };
     let t = (0..n).map(|i| i as f64 * dt).collect();
-    let record = Record::new(t, a).expect("a simulated record is finite and increasing");
+    // A step so small that the times do not increase in floating point.
+    let record = Record::new(t, a).map_err(|_| SimError::Grid {
+        name: "dt",
+        value: dt,
+        requirement: "the sample times i dt do not increase in floating point",
+    })?;
     Ok(Synthetic {
         record,
         clean,
