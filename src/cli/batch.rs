@@ -5,8 +5,9 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
+use clap::error::{ContextKind, ContextValue};
 use clap::Parser;
-use hbis::batch::{Shard, Study};
+use hbis::batch::{Item, Shard, Study};
 use hbis::study::batch_run::{self, describe, Event, Plan};
 
 use super::fit;
@@ -14,7 +15,7 @@ use super::fit;
 #[derive(Debug, clap::Args)]
 pub struct Args {
     /// The study: a TOML manifest of records, models and seeds (format in
-    /// docs/cli.md); record paths are relative to its folder.
+    /// docs/cli.md); its paths are relative to its folder.
     #[arg(long)]
     manifest: PathBuf,
     /// The study's output folder: one folder per item
@@ -57,7 +58,7 @@ pub fn run(a: Args) -> Result<()> {
     // Every item's options are checked as `hbis fit` checks them before
     // any is run: a typo costs nothing.
     for p in &plans {
-        parse_fit(&p.args).with_context(|| describe(&study, &p.item))?;
+        parse_fit(&study, &p.item, &p.args)?;
     }
     if a.collect {
         let path = batch_run::collect(&study, &plans, &a.out, &a.manifest)?;
@@ -74,9 +75,9 @@ pub fn run(a: Args) -> Result<()> {
         plans.iter().filter(|p| shard.holds(&p.item)).count()
     );
     let mut fit = |p: &Plan| -> Result<(), Vec<String>> {
-        parse_fit(&p.args)
+        parse_fit(&study, &p.item, &p.args)
             .and_then(fit::run)
-            .map_err(|e| e.chain().map(|c| c.to_string()).collect())
+            .map_err(|e| with_key(&study, &p.item, e.chain().map(|c| c.to_string()).collect()))
     };
     let mut on_event = |e: Event<'_>| match e {
         Event::Skipped { n, of, plan } => {
@@ -120,19 +121,46 @@ pub fn run(a: Args) -> Result<()> {
     Ok(())
 }
 
-/// Parses `hbis fit` arguments as the binary does; a clap error becomes
-/// its first line.
-fn parse_fit(args: &[String]) -> Result<fit::Args> {
+/// Parses `item`'s `hbis fit` arguments as the binary does; a clap error
+/// becomes its first line, after the item and the manifest key that set
+/// the flag it is about.
+fn parse_fit(study: &Study, item: &Item, args: &[String]) -> Result<fit::Args> {
     FitCommand::try_parse_from(args)
         .map(|c| c.args)
         .map_err(|e| {
             let msg = e.to_string();
-            anyhow::anyhow!(
-                "{}",
-                msg.lines()
-                    .next()
-                    .unwrap_or("")
-                    .trim_start_matches("error: ")
-            )
+            let first = msg.lines().next().unwrap_or("");
+            let first = first.trim_start_matches("error: ");
+            let key = match e.get(ContextKind::InvalidArg) {
+                Some(ContextValue::String(flag)) => study.key_of(item, flag_name(flag)),
+                _ => None,
+            };
+            let item = describe(study, item);
+            match key {
+                Some(k) => anyhow::anyhow!("{item}: `{k}`: {first}"),
+                None => anyhow::anyhow!("{item}: {first}"),
+            }
         })
+}
+
+/// An item's error chain, led by the manifest key that set the flag it
+/// starts with (`hbis fit` names the flag: `--max-evals: ...`).
+fn with_key(study: &Study, item: &Item, mut chain: Vec<String>) -> Vec<String> {
+    let first = chain.first().map_or("", String::as_str);
+    if first.starts_with("--") {
+        if let Some(key) = study.key_of(item, flag_name(first)) {
+            chain.insert(0, format!("`{key}`"));
+        }
+    }
+    chain
+}
+
+/// The option a message or a clap argument starts with: `walkers` for
+/// `--walkers <WALKERS>`, `max-evals` for `--max-evals: ...`.
+fn flag_name(arg: &str) -> &str {
+    let flag = arg.trim_start_matches('-');
+    let end = flag
+        .find(|c: char| !(c.is_ascii_alphanumeric() || c == '-'))
+        .unwrap_or(flag.len());
+    &flag[..end]
 }

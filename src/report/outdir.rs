@@ -328,11 +328,84 @@ fn temporary(path: &Path) -> PathBuf {
     let name = path
         .file_name()
         .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
+    path.with_file_name(temporary_name(&name, std::process::id()))
+}
+
+/// The temporary file name of output `name` written by process `pid`.
+fn temporary_name(name: &str, pid: u32) -> String {
     let (stem, ext) = match name.rsplit_once('.') {
         Some((s, e)) if !s.is_empty() => (s.to_string(), format!(".{e}")),
-        _ => (name.clone(), String::new()),
+        _ => (name.to_string(), String::new()),
     };
-    path.with_file_name(format!(".{stem}.{}.tmp{ext}", std::process::id()))
+    format!(".{stem}.{pid}.tmp{ext}")
+}
+
+/// The output name and the writing process of a temporary file name made
+/// by this module (`.fit.123.tmp.json` -> `fit.json`, 123); `None` for any
+/// other name.
+///
+/// ```
+/// use hbis::report::outdir::temporary_of;
+/// assert_eq!(temporary_of(".fit.123.tmp.json"), Some(("fit.json".into(), 123)));
+/// assert_eq!(temporary_of("fit.json"), None);
+/// ```
+pub fn temporary_of(file_name: &str) -> Option<(String, u32)> {
+    let rest = file_name.strip_prefix('.')?;
+    // The extension, if any, follows `.tmp`; try without one, then with.
+    let without = rest.strip_suffix(".tmp").map(|head| (head, ""));
+    let with = rest
+        .rsplit_once('.')
+        .and_then(|(h, e)| Some((h.strip_suffix(".tmp")?, e)));
+    [without, with]
+        .into_iter()
+        .flatten()
+        .find_map(|(head, ext)| {
+            let (stem, pid) = head.rsplit_once('.')?;
+            let pid: u32 = pid.parse().ok()?;
+            let name = if ext.is_empty() {
+                stem.to_string()
+            } else {
+                format!("{stem}.{ext}")
+            };
+            // Only a name this module would have made for that output.
+            (temporary_name(&name, pid) == file_name).then_some((name, pid))
+        })
+}
+
+/// Removes from `dir` (and, when `deep`, its sub-folders; symbolic links
+/// are not followed) the temporary files that runs killed before their
+/// rename left: names [`temporary_of`] recognises, of an output `owned`
+/// accepts, written by a process that no longer exists. Returns how many.
+pub fn remove_orphan_temporaries(
+    dir: &Path,
+    deep: bool,
+    owned: &dyn Fn(&str) -> bool,
+) -> Result<usize, OutError> {
+    let entries = match fs::read_dir(dir) {
+        Ok(e) => e,
+        Err(e) if e.kind() == io::ErrorKind::NotFound => return Ok(0),
+        Err(e) => return Err(io_err("cannot list", dir)(e)),
+    };
+    let mut removed = 0;
+    for entry in entries {
+        let entry = entry.map_err(io_err("cannot list", dir))?;
+        let path = entry.path();
+        let kind = entry.file_type().map_err(io_err("cannot inspect", &path))?;
+        if kind.is_dir() && deep {
+            removed += remove_orphan_temporaries(&path, deep, owned)?;
+            continue;
+        }
+        let name = entry.file_name().to_string_lossy().into_owned();
+        let orphan = temporary_of(&name).is_some_and(|(out, pid)| owned(&out) && !alive(pid));
+        if kind.is_file() && orphan {
+            match fs::remove_file(&path) {
+                Ok(()) => removed += 1,
+                Err(e) if e.kind() == io::ErrorKind::NotFound => {}
+                Err(e) => return Err(io_err("cannot remove leftover temporary", &path)(e)),
+            }
+        }
+    }
+    Ok(removed)
 }
 
 fn write_synced(path: &Path, bytes: &[u8]) -> Result<(), OutError> {
@@ -600,6 +673,33 @@ mod tests {
             .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
             .collect();
         assert!(names.iter().all(|n| !n.contains(".tmp")), "{names:?}");
+    }
+
+    #[test]
+    fn temporary_names_are_recognised_and_nothing_else() {
+        for name in [
+            "fit.json",
+            "chain-1.csv",
+            "noext",
+            ".hbis-stale",
+            "a.b.png",
+            "x.tmp",
+        ] {
+            let t = temporary_name(name, 4242);
+            assert_eq!(temporary_of(&t), Some((name.to_string(), 4242)), "{t}");
+        }
+        for other in [
+            "fit.json",
+            ".fit.json",
+            ".fit.tmp.json",
+            ".fit.12a.tmp.json",
+            "fit.123.tmp.json",
+            ".fit.123.tmp.json.bak",
+            "state.json.tmp",
+            "ensemble-2.bin.tmp",
+        ] {
+            assert_eq!(temporary_of(other), None, "{other}");
+        }
     }
 
     #[test]

@@ -11,6 +11,7 @@
 //! [fit]                      # hbis fit's flags without the dashes
 //! ensembles = 2
 //! map-only = false
+//! prior = "priors/a.json"    # relative to the manifest's folder
 //!
 //! [[record]]
 //! path = "records/test3.csv" # relative to the manifest's folder
@@ -40,8 +41,9 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
-use std::collections::BTreeSet;
+use std::collections::{BTreeMap, BTreeSet, HashMap};
 use std::fmt::Write as _;
+use std::hash::Hash;
 use std::path::{Path, PathBuf};
 use std::str::FromStr;
 
@@ -99,6 +101,11 @@ pub const FIT_OPTIONS: &[(&str, bool)] = &[
     ("no-chains", false),
     ("keep-checkpoint", false),
 ];
+
+/// `hbis fit` options whose value is a file: resolved against the
+/// manifest's folder, as record paths are, and their content is in each
+/// item's stamp.
+pub const FILE_OPTIONS: &[&str] = &["prior"];
 
 /// One record of the study.
 #[derive(Debug, Clone, PartialEq)]
@@ -191,8 +198,14 @@ impl std::fmt::Display for Shard {
 }
 
 /// A table's fit options as flags, refusing unknown keys and values of the
-/// wrong type. `skip` names keys handled elsewhere.
-fn flags_of(table: &toml::Table, at: &str, skip: &[&str]) -> Result<Vec<String>, BatchError> {
+/// wrong type. `skip` names keys handled elsewhere; file options resolve
+/// against `base`.
+fn flags_of(
+    table: &toml::Table,
+    at: &str,
+    skip: &[&str],
+    base: &Path,
+) -> Result<Vec<String>, BatchError> {
     let mut flags = Vec::new();
     for (k, v) in table {
         if skip.contains(&k.as_str()) {
@@ -213,13 +226,132 @@ fn flags_of(table: &toml::Table, at: &str, skip: &[&str]) -> Result<Vec<String>,
             (false, toml::Value::Boolean(true)) => flags.push(format!("--{k}")),
             (false, toml::Value::Boolean(false)) => {}
             (false, _) => return Err(key_err(key, "expected true or false")),
-            (true, toml::Value::String(s)) => flags.extend([format!("--{k}"), s.clone()]),
-            (true, toml::Value::Integer(i)) => flags.extend([format!("--{k}"), i.to_string()]),
-            (true, toml::Value::Float(x)) => flags.extend([format!("--{k}"), x.to_string()]),
-            (true, _) => return Err(key_err(key, "expected a number or a string")),
+            (true, v) => flags.extend(value_flag(k, v, base).map_err(|p| key_err(key, p))?),
         }
     }
     Ok(flags)
+}
+
+/// `--k value` for an option that takes one; a file option's path joined
+/// to `base`.
+fn value_flag(k: &str, v: &toml::Value, base: &Path) -> Result<Vec<String>, &'static str> {
+    let value = match v {
+        toml::Value::String(s) if FILE_OPTIONS.contains(&k) => base.join(s).display().to_string(),
+        _ if FILE_OPTIONS.contains(&k) => return Err("expected a file path (a string)"),
+        toml::Value::String(s) => s.clone(),
+        toml::Value::Integer(i) => i.to_string(),
+        toml::Value::Float(x) => x.to_string(),
+        _ => return Err("expected a number or a string"),
+    };
+    // Apart, a value starting with a dash (`-3`) would be read by `hbis fit`
+    // as a flag of its own, and its error would not name the option.
+    Ok(if value.starts_with('-') {
+        vec![format!("--{k}={value}")]
+    } else {
+        vec![format!("--{k}"), value]
+    })
+}
+
+/// Flags as groups, each a flag with its value if it has one. Values never
+/// start with a dash (see [`value_flag`]).
+fn flag_groups(flags: &[String]) -> Vec<&[String]> {
+    let mut out = Vec::new();
+    let mut start = 0;
+    for i in 1..=flags.len() {
+        if i == flags.len() || flags[i].starts_with("--") {
+            out.push(&flags[start..i]);
+            start = i;
+        }
+    }
+    out
+}
+
+/// The option a group sets, without dashes: `walkers` for `--walkers=-3`.
+fn flag_name(group: &[String]) -> &str {
+    let flag = group[0].trim_start_matches("--");
+    flag.split_once('=').map_or(flag, |(n, _)| n)
+}
+
+/// The value a group gives, attached (`--k=v`) or apart (`--k v`).
+fn flag_value(group: &[String]) -> Option<&str> {
+    match group.get(1) {
+        Some(v) => Some(v),
+        None => group[0].split_once('=').map(|(_, v)| v),
+    }
+}
+
+/// Refuses an entry listed twice under `key`: its item would run once and
+/// its rows be written once per copy.
+fn refuse_duplicates<T: Hash + Eq>(
+    list: &[T],
+    key: &str,
+    shown: impl Fn(&T) -> String,
+) -> Result<(), BatchError> {
+    let mut first = HashMap::new();
+    for (j, x) in list.iter().enumerate() {
+        if let Some(i) = first.insert(x, j) {
+            return Err(key_err(
+                format!("{key}[{}]", j + 1),
+                format!(
+                    "{} is listed twice (also {key}[{}]): list each once",
+                    shown(x),
+                    i + 1
+                ),
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// A TOML error on one line: where it is, the key being read there (the
+/// last one at or before that line), and the message's lines joined.
+fn syntax_error(text: &str, e: &toml::de::Error) -> BatchError {
+    let message: Vec<&str> = e
+        .message()
+        .lines()
+        .map(str::trim)
+        .filter(|l| !l.is_empty())
+        .collect();
+    let message = message.join("; ");
+    let Some(at) = e.span().map(|s| s.start.min(text.len())) else {
+        return BatchError::Syntax(message);
+    };
+    let before = text.get(..at).unwrap_or(text);
+    let line = before.matches('\n').count() + 1;
+    let column = before.rsplit('\n').next().unwrap_or("").chars().count() + 1;
+    let key = match key_before(text, line) {
+        Some((k, l)) if l == line => format!(", at `{k}`"),
+        Some((k, _)) => format!(", after `{k}`"),
+        None => String::new(),
+    };
+    BatchError::Syntax(format!("line {line}, column {column}{key}: {message}"))
+}
+
+/// The last `key = ...` at or before line `line` (1-based), with its table
+/// (`fit.walkers`, `record[2].path`), and its line.
+fn key_before(text: &str, line: usize) -> Option<(String, usize)> {
+    let mut table = String::new();
+    let mut arrays: BTreeMap<String, usize> = BTreeMap::new();
+    let mut key = None;
+    for (n, l) in text.lines().take(line).enumerate() {
+        let l = l.trim();
+        if let Some(name) = l.strip_prefix("[[").and_then(|r| r.split("]]").next()) {
+            let count = arrays.entry(name.trim().to_string()).or_default();
+            *count += 1;
+            table = format!("{}[{count}].", name.trim());
+        } else if let Some(name) = l.strip_prefix('[').and_then(|r| r.split(']').next()) {
+            table = format!("{}.", name.trim());
+        } else if let Some((k, _)) = l.split_once('=') {
+            let k = k.trim();
+            let bare = !k.is_empty()
+                && k.chars()
+                    .all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_');
+            if bare {
+                key = Some((format!("{table}{k}"), n + 1));
+            }
+        }
+    }
+    key
 }
 
 fn string_list(table: &toml::Table, key: &str) -> Result<Vec<String>, BatchError> {
@@ -297,16 +429,16 @@ fn record(v: &toml::Value, i: usize, base: &Path) -> Result<StudyRecord, BatchEr
             format!("`{name}`: expected a folder name (no slashes, not starting with a dot)"),
         ));
     }
-    let flags = flags_of(t, &format!("{at}."), &["path", "name"])?;
+    let flags = flags_of(t, &format!("{at}."), &["path", "name"], base)?;
     Ok(StudyRecord { name, path, flags })
 }
 
 impl Study {
-    /// Parses a manifest; record paths are resolved against `base` (the
-    /// manifest's folder).
+    /// Parses a manifest; relative paths (records, effect files, file
+    /// options) are resolved against `base` (the manifest's folder).
+    /// Duplicate models, seeds or records are refused.
     pub fn parse(text: &str, base: &Path) -> Result<Self, BatchError> {
-        let table: toml::Table =
-            toml::from_str(text).map_err(|e| BatchError::Syntax(e.to_string()))?;
+        let table: toml::Table = toml::from_str(text).map_err(|e| syntax_error(text, &e))?;
         for k in table.keys() {
             if !["models", "seeds", "effects", "fit", "record"].contains(&k.as_str()) {
                 return Err(key_err(
@@ -316,7 +448,9 @@ impl Study {
             }
         }
         let models = string_list(&table, "models")?;
+        refuse_duplicates(&models, "models", |m| format!("model `{m}`"))?;
         let seeds = seeds(&table)?;
+        refuse_duplicates(&seeds, "seeds", |s| format!("seed {s}"))?;
         let effects = match table.get("effects") {
             Some(_) => string_list(&table, "effects")?
                 .iter()
@@ -325,7 +459,7 @@ impl Study {
             None => Vec::new(),
         };
         let flags = match table.get("fit") {
-            Some(toml::Value::Table(t)) => flags_of(t, "fit.", &[])?,
+            Some(toml::Value::Table(t)) => flags_of(t, "fit.", &[], base)?,
             Some(_) => return Err(key_err("fit", "expected a table ([fit])")),
             None => Vec::new(),
         };
@@ -343,6 +477,13 @@ impl Study {
             .enumerate()
             .map(|(i, v)| record(v, i, base))
             .collect::<Result<Vec<_>, _>>()?;
+        let same: Vec<(&Path, &[String])> = records
+            .iter()
+            .map(|r| (r.path.as_path(), r.flags.as_slice()))
+            .collect();
+        refuse_duplicates(&same, "record", |(p, _)| {
+            format!("record file {} with the same options", p.display())
+        })?;
         let mut names = BTreeSet::new();
         for (i, r) in records.iter().enumerate() {
             if !names.insert(r.name.clone()) {
@@ -395,9 +536,47 @@ impl Study {
         for e in &self.effects {
             args.extend(["--effects".to_string(), e.display().to_string()]);
         }
-        args.extend(self.flags.iter().cloned());
-        args.extend(r.flags.iter().cloned());
+        args.extend(self.item_flags(item));
         args
+    }
+
+    /// The study's flags, then the record's; a record's option replaces
+    /// the study's (`hbis fit` takes each once).
+    fn item_flags(&self, item: &Item) -> Vec<String> {
+        let own = &self.records[item.record].flags;
+        let mine: BTreeSet<&str> = flag_groups(own).into_iter().map(flag_name).collect();
+        let study = flag_groups(&self.flags)
+            .into_iter()
+            .filter(|g| !mine.contains(flag_name(g)));
+        study.flatten().chain(own).cloned().collect()
+    }
+
+    /// The manifest key that sets fit option `name` (no dashes) for
+    /// `item`: the record's own, else `[fit]`'s.
+    pub fn key_of(&self, item: &Item, name: &str) -> Option<String> {
+        let sets = |flags: &[String]| flag_groups(flags).iter().any(|g| flag_name(g) == name);
+        if sets(&self.records[item.record].flags) {
+            Some(format!("record[{}].{name}", item.record + 1))
+        } else if sets(&self.flags) {
+            Some(format!("fit.{name}"))
+        } else {
+            None
+        }
+    }
+
+    /// The files of [`FILE_OPTIONS`] that `item` is fitted with: each
+    /// option (`prior`), the manifest key that sets it, and the file.
+    pub fn option_files(&self, item: &Item) -> Vec<(String, String, PathBuf)> {
+        let flags = self.item_flags(item);
+        let mut out = Vec::new();
+        for g in flag_groups(&flags) {
+            let name = flag_name(g);
+            if let (true, Some(v)) = (FILE_OPTIONS.contains(&name), flag_value(g)) {
+                let key = self.key_of(item, name).unwrap_or_else(|| name.to_string());
+                out.push((name.to_string(), key, PathBuf::from(v)));
+            }
+        }
+        out
     }
 }
 
@@ -576,6 +755,104 @@ mod tests {
         ] {
             let e = study(text).unwrap_err().to_string();
             assert!(e.contains(key), "{text:?}: {e}");
+        }
+    }
+
+    #[test]
+    fn duplicate_models_seeds_and_records_are_refused_naming_both() {
+        for (text, expect) in [
+            (
+                "models = [\"a\", \"b\", \"a\"]\n[[record]]\npath = \"x\"\n",
+                "`models[3]`: model `a` is listed twice (also models[1])",
+            ),
+            (
+                "models = [\"a\"]\nseeds = [1, 2, 2]\n[[record]]\npath = \"x\"\n",
+                "`seeds[3]`: seed 2 is listed twice (also seeds[2])",
+            ),
+            (
+                "models = [\"a\"]\n[[record]]\npath = \"x\"\n[[record]]\npath = \"./x\"\nname = \"y\"\n",
+                "`record[2]`: record file /s/./x with the same options is listed twice (also record[1])",
+            ),
+        ] {
+            let e = study(text).unwrap_err().to_string();
+            assert!(e.contains(expect), "{text:?}: {e}");
+        }
+        // The same file with other options is another item.
+        study("models = [\"a\"]\n[[record]]\npath = \"x\"\n[[record]]\npath = \"x\"\nname = \"y\"\nt0 = 0.5\n")
+            .unwrap();
+    }
+
+    #[test]
+    fn file_options_resolve_against_the_manifest_and_are_listed_with_their_key() {
+        let s = study(
+            "models = [\"m\"]\n[fit]\nprior = \"p/a.json\"\n[[record]]\npath = \"x.csv\"\n[[record]]\npath = \"y.csv\"\nprior = \"/abs/b.toml\"\n",
+        )
+        .unwrap();
+        let items = s.items();
+        let args = s.fit_args(&items[0], Path::new("o")).join(" ");
+        assert!(args.ends_with("--prior /s/p/a.json"), "{args}");
+        assert_eq!(
+            s.option_files(&items[0]),
+            [(
+                "prior".into(),
+                "fit.prior".into(),
+                PathBuf::from("/s/p/a.json")
+            )]
+        );
+        assert_eq!(
+            s.option_files(&items[1]),
+            [(
+                "prior".into(),
+                "record[2].prior".into(),
+                PathBuf::from("/abs/b.toml")
+            )]
+        );
+        let e = study("models = [\"m\"]\n[fit]\nprior = 3\n[[record]]\npath = \"x\"\n")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("`fit.prior`: expected a file path"), "{e}");
+    }
+
+    #[test]
+    fn a_record_option_replaces_the_study_one_and_negative_values_stay_attached() {
+        let s = study(
+            "models = [\"m\"]\n[fit]\nwalkers = 40\nt0 = -0.5\n[[record]]\npath = \"x.csv\"\nwalkers = -3\n[[record]]\npath = \"y.csv\"\n",
+        )
+        .unwrap();
+        let items = s.items();
+        let own = s.fit_args(&items[0], Path::new("o")).join(" ");
+        assert!(own.ends_with("--out o --t0=-0.5 --walkers=-3"), "{own}");
+        assert_eq!(
+            s.key_of(&items[0], "walkers").as_deref(),
+            Some("record[1].walkers")
+        );
+        assert_eq!(
+            s.key_of(&items[1], "walkers").as_deref(),
+            Some("fit.walkers")
+        );
+        assert_eq!(s.key_of(&items[1], "t0").as_deref(), Some("fit.t0"));
+        assert_eq!(s.key_of(&items[1], "ess"), None);
+        let other = s.fit_args(&items[1], Path::new("o")).join(" ");
+        assert!(other.ends_with("--out o --t0=-0.5 --walkers 40"), "{other}");
+    }
+
+    #[test]
+    fn toml_errors_are_one_line_with_the_place_and_the_key() {
+        for (text, expect) in [
+            ("models = [\"m\"\n[fit]\n", "line 2, column 1, after `models`: "),
+            (
+                "models = [\"m\"]\n[fit]\nwalkers = \n",
+                "line 3, column 11, at `fit.walkers`: ",
+            ),
+            (
+                "models = [\"m\"]\n[[record]]\npath = \"a\"\n[[record]]\npath = \"b\"\npath = \"c\"\n",
+                "line 6, column 1, at `record[2].path`: ",
+            ),
+        ] {
+            let e = study(text).unwrap_err().to_string();
+            assert!(e.starts_with("not a TOML study manifest: "), "{e}");
+            assert!(e.contains(expect), "{text:?}: {e}");
+            assert!(!e.contains('\n'), "{e}");
         }
     }
 

@@ -7,13 +7,16 @@
 //! print; the skipping, stamping and summary are here, the same for every
 //! caller.
 
+use std::collections::{BTreeMap, HashMap};
 use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
 use crate::model::{ForwardModel, Registry};
-use crate::report::outdir::{write_file_atomic, InputEntry, Manifest, OutError, MANIFEST};
+use crate::report::outdir::{
+    remove_orphan_temporaries, write_file_atomic, InputEntry, Manifest, OutError, MANIFEST,
+};
 use crate::study::batch::{summary_header, summary_rows, BatchError, Item, Shard, Study};
 
 /// The file beside an item's results that says what it was run with.
@@ -85,6 +88,10 @@ struct ItemStamp {
     /// effect file reruns the item.
     #[serde(default)]
     effects_sha256: Vec<String>,
+    /// SHA-256 of each file option's file (`prior`), by option: an edited
+    /// prior file reruns the item.
+    #[serde(default)]
+    option_files_sha256: BTreeMap<String, String>,
 }
 
 /// One item, ready to run.
@@ -119,50 +126,108 @@ pub fn describe(study: &Study, item: &Item) -> String {
 /// typo costs nothing.
 pub fn plan(study: &Study, registry: &Registry, out: &Path) -> Result<Vec<Plan>, BatchRunError> {
     let mut registry = registry.clone();
-    let mut effects_sha256 = Vec::new();
-    for e in &study.effects {
-        let wrap = |source: Box<dyn std::error::Error + Send + Sync>| BatchRunError::Plan {
-            item: format!("effects: {}", e.display()),
-            source,
-        };
-        registry.load_effect_file(e).map_err(|x| wrap(x.into()))?;
-        effects_sha256.push(InputEntry::of(e).map_err(|x| wrap(x.into()))?.sha256);
+    for (i, e) in study.effects.iter().enumerate() {
+        registry
+            .load_effect_file(e)
+            .map_err(|x| BatchRunError::Plan {
+                item: format!("`effects[{}]` {}", i + 1, e.display()),
+                source: x.into(),
+            })?;
     }
+    refuse_same_models(study, &registry)?;
+    let mut hashes = HashMap::new();
     study
         .items()
         .into_iter()
-        .map(|item| {
-            let wrap = |source: Box<dyn std::error::Error + Send + Sync>| BatchRunError::Plan {
-                item: describe(study, &item),
-                source,
-            };
-            let folder = out.join(item.folder(study));
-            let args = study.fit_args(&item, &folder);
-            let record = study.records[item.record].path.clone();
-            let sha = InputEntry::of(&record).map_err(|x| wrap(x.into()))?.sha256;
-            let model = registry
-                .parse(&item.model)
-                .map_err(|x| wrap(x.into()))?
-                .name();
-            // The output folder is where the results go, not what they are.
-            let mut kept = args.clone();
-            if let Some(i) = kept.iter().position(|x| x == "--out") {
-                kept.drain(i..i + 2);
-            }
-            Ok(Plan {
-                folder,
-                record,
-                args,
-                model,
-                stamp: ItemStamp {
-                    args: kept,
-                    record_sha256: sha,
-                    effects_sha256: effects_sha256.clone(),
-                },
-                item,
-            })
-        })
+        .map(|item| plan_item(study, &registry, out, item, &mut hashes))
         .collect()
+}
+
+/// Refuses two specs of one model (`bilinear+coulomb`, `coulomb+bilinear`):
+/// their items would be the same fit twice. Specs that do not parse are
+/// left to their items' errors.
+fn refuse_same_models(study: &Study, registry: &Registry) -> Result<(), BatchError> {
+    let mut first: HashMap<String, usize> = HashMap::new();
+    for (j, spec) in study.models.iter().enumerate() {
+        let Ok(model) = registry.parse(spec) else {
+            continue;
+        };
+        if let Some(i) = first.insert(model.name(), j) {
+            return Err(BatchError::Key {
+                key: format!("models[{}]", j + 1),
+                problem: format!(
+                    "`{spec}` is the model of models[{}] (`{}`): list each model once",
+                    i + 1,
+                    study.models[i]
+                ),
+            });
+        }
+    }
+    Ok(())
+}
+
+/// One item's plan; `hashes` keeps each input file's SHA-256 (by path),
+/// so a file shared by items is read once.
+fn plan_item(
+    study: &Study,
+    registry: &Registry,
+    out: &Path,
+    item: Item,
+    hashes: &mut HashMap<PathBuf, String>,
+) -> Result<Plan, BatchRunError> {
+    let what = describe(study, &item);
+    let mut hash = |key: String, path: &Path| -> Result<String, BatchRunError> {
+        if let Some(h) = hashes.get(path) {
+            return Ok(h.clone());
+        }
+        let sha = InputEntry::of(path)
+            .map_err(|x| BatchRunError::Plan {
+                item: format!("{what}: `{key}`"),
+                source: x.into(),
+            })?
+            .sha256;
+        hashes.insert(path.to_path_buf(), sha.clone());
+        Ok(sha)
+    };
+    let record = study.records[item.record].path.clone();
+    let record_sha256 = hash(format!("record[{}].path", item.record + 1), &record)?;
+    let effects_sha256 = study
+        .effects
+        .iter()
+        .enumerate()
+        .map(|(i, e)| hash(format!("effects[{}]", i + 1), e))
+        .collect::<Result<Vec<_>, _>>()?;
+    let mut option_files_sha256 = BTreeMap::new();
+    for (option, key, path) in study.option_files(&item) {
+        option_files_sha256.insert(option, hash(key, &path)?);
+    }
+    let model = registry
+        .parse(&item.model)
+        .map_err(|x| BatchRunError::Plan {
+            item: what.clone(),
+            source: x.into(),
+        })?
+        .name();
+    let folder = out.join(item.folder(study));
+    let args = study.fit_args(&item, &folder);
+    // The output folder is where the results go, not what they are.
+    let mut kept = args.clone();
+    if let Some(i) = kept.iter().position(|x| x == "--out") {
+        kept.drain(i..i + 2);
+    }
+    Ok(Plan {
+        folder,
+        record,
+        args,
+        model,
+        stamp: ItemStamp {
+            args: kept,
+            record_sha256,
+            effects_sha256,
+            option_files_sha256,
+        },
+        item,
+    })
 }
 
 impl Plan {
@@ -259,9 +324,18 @@ pub fn run(
 ) -> Result<(), BatchRunError> {
     let mine: Vec<&Plan> = plans.iter().filter(|p| shard.holds(&p.item)).collect();
     let of = mine.len();
+    let name = if shard == Shard::ALL {
+        "summary.csv".to_string()
+    } else {
+        format!("summary-shard-{}-of-{}.csv", shard.index, shard.count)
+    };
+    // Other shards may share `out`: of its files, only this summary's.
+    remove_orphan_temporaries(out, false, &|f| f == name)?;
     let mut failed = Vec::new();
     for (k, plan) in mine.iter().enumerate() {
         let n = k + 1;
+        // The item's folder is this shard's alone.
+        remove_orphan_temporaries(&plan.folder, true, &|_| true)?;
         if plan.is_done() {
             on_event(Event::Skipped { n, of, plan });
             continue;
@@ -282,11 +356,6 @@ pub fn run(
             }
         }
     }
-    let name = if shard == Shard::ALL {
-        "summary.csv".to_string()
-    } else {
-        format!("summary-shard-{}-of-{}.csv", shard.index, shard.count)
-    };
     let done: Vec<&Plan> = mine.into_iter().filter(|p| p.is_done()).collect();
     let path = write_summary(study, &done, out, manifest, &name)?;
     on_event(Event::Summary {
@@ -337,6 +406,7 @@ pub fn collect(
         });
     }
     let all: Vec<&Plan> = plans.iter().collect();
+    remove_orphan_temporaries(out, false, &|f| f == "summary.csv")?;
     write_summary(study, &all, out, manifest, "summary.csv")
 }
 

@@ -17,12 +17,17 @@ const RECORDS: usize = 20;
 /// Twenty short records (the five Table 8.1 tests, four noise seeds each)
 /// and a manifest fitting each with one model and one seed, MAP only.
 fn study(dir: &Path) {
+    study_of(dir, RECORDS);
+}
+
+/// [`study`] with the first `records` records only.
+fn study_of(dir: &Path, records: usize) {
     let model = Model::parse("trilinear+lcfm+viscous").unwrap();
     std::fs::create_dir_all(dir.join("records")).unwrap();
     let mut text = String::from(
         "models = [\"bilinear+coulomb+viscous\"]\nseeds = [7]\n\n[fit]\nmap-only = true\nmax-evals = 4000\n",
     );
-    for i in 0..RECORDS {
+    for i in 0..records {
         let p = Params::table_8_1([3, 5, 6, 7, 8][i % 5]).unwrap();
         let theta = model.theta_from_params(&p, &[]).unwrap();
         let mut rng = StdRng::seed_from_u64(i as u64);
@@ -139,14 +144,51 @@ fn bad_manifests_exit_2_naming_what_is_wrong_before_any_fit() {
         ),
         (
             good.replace("max-evals = 4000", "max-evals = 0"),
-            "item 1 (record rec00",
+            "item 1 (record rec00, model bilinear+coulomb+viscous, seed 7): error: `fit.max-evals`: --max-evals",
         ),
         (good.replace("seeds = [7]", "seeds = []"), "`seeds`: empty"),
+        // Duplicates would run once and write their rows once per copy.
+        (
+            good.replace("seeds = [7]", "seeds = [7, 8, 7]"),
+            "`seeds[3]`: seed 7 is listed twice (also seeds[1])",
+        ),
+        (
+            good.replace(
+                "models = [\"bilinear+coulomb+viscous\"]",
+                "models = [\"bilinear+coulomb+viscous\", \"bilinear+viscous+coulomb\"]",
+            ),
+            "`models[2]`: `bilinear+viscous+coulomb` is the model of models[1]",
+        ),
+        (
+            format!("{good}\n[[record]]\npath = \"records/rec03.csv\"\nname = \"again\"\n"),
+            "`record[21]`: record file records/rec03.csv with the same options is listed twice (also record[4])",
+        ),
+        // A negative number reaches `hbis fit` as the option's value.
+        (
+            good.replace("max-evals = 4000", "max-evals = 4000\nwalkers = -3"),
+            "item 1 (record rec00, model bilinear+coulomb+viscous, seed 7): `fit.walkers`: invalid value '-3' for '--walkers",
+        ),
+        (
+            good.replace("path = \"records/rec02.csv\"", "path = \"records/rec02.csv\"\nwalkers = -3"),
+            "item 3 (record rec02, model bilinear+coulomb+viscous, seed 7): `record[3].walkers`: invalid value '-3'",
+        ),
+        (
+            good.replace("max-evals = 4000", "max-evals = 4000\nprior = \"nowhere.json\""),
+            "`fit.prior`: cannot read nowhere.json",
+        ),
+        (
+            good.replace("max-evals = 4000", "max-evals = 4000\nwalkers = "),
+            "not a TOML study manifest: line 7, column 11, at `fit.walkers`: ",
+        ),
     ] {
         std::fs::write(d.path().join("bad.toml"), &text).unwrap();
         let o = hbis(d.path(), &["batch", "--manifest", "bad.toml", "--out", "o"]);
         assert_eq!(o.status.code(), Some(2), "{expect}: {}", stderr(&o));
         assert!(stderr(&o).contains(expect), "{expect}: {}", stderr(&o));
+        // `max-evals = 0` is refused by each item's fit, one line per item.
+        if !text.contains("max-evals = 0") {
+            assert_eq!(stderr(&o).lines().count(), 1, "one line: {}", stderr(&o));
+        }
         assert!(
             !d.path().join("o/rec00").exists(),
             "{expect}: fitted before refusing"
@@ -159,5 +201,86 @@ fn bad_manifests_exit_2_naming_what_is_wrong_before_any_fit() {
         );
         assert_eq!(o.status.code(), Some(2));
         assert!(stderr(&o).contains("expected i/n"), "{}", stderr(&o));
+    }
+}
+
+/// The tail of `batch --manifest sub/study.toml --out o`, run in `dir`.
+fn run_sub(dir: &Path) -> String {
+    let o = hbis(
+        dir,
+        &["batch", "--manifest", "sub/study.toml", "--out", "o"],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    stderr(&o)
+}
+
+#[test]
+fn prior_paths_are_the_manifests_and_an_edited_prior_refits_its_items() {
+    let d = tempfile::tempdir().unwrap();
+    let sub = d.path().join("sub");
+    study_of(&sub, 2);
+    let prior = |upper: f64| {
+        let text = format!(r#"{{"zeta0": {{"dist": "uniform", "lower": 0.0, "upper": {upper}}}}}"#);
+        std::fs::write(sub.join("prior.json"), text).unwrap();
+    };
+    prior(0.2);
+    let text = read(&sub.join("study.toml"));
+    let text = text.replace(
+        "max-evals = 4000",
+        "max-evals = 4000\nprior = \"prior.json\"",
+    );
+    std::fs::write(sub.join("study.toml"), text).unwrap();
+    // Run from the manifest's parent: `prior.json` is the one beside it.
+    let err = run_sub(d.path());
+    assert_eq!(err.matches(": done in").count(), 2, "{err}");
+    assert_eq!(run_sub(d.path()).matches("complete, skipped").count(), 2);
+    prior(0.15);
+    let err = run_sub(d.path());
+    assert_eq!(err.matches("complete, skipped").count(), 0, "{err}");
+    assert_eq!(err.matches(": done in").count(), 2, "{err}");
+}
+
+#[test]
+fn a_rerun_removes_the_temporary_files_killed_runs_left_and_nothing_else() {
+    let d = tempfile::tempdir().unwrap();
+    study_of(d.path(), 2);
+    let run = || {
+        let o = hbis(
+            d.path(),
+            &["batch", "--manifest", "study.toml", "--out", "o"],
+        );
+        assert!(o.status.success(), "{}", stderr(&o));
+    };
+    run();
+    let item = d.path().join("o/rec01/bilinear+coulomb+viscous/seed-7");
+    std::fs::create_dir_all(item.join("chains")).unwrap();
+    // Process ids are below 2^22 on Linux: 4294967000 is no process.
+    let dead = 4_294_967_000u32;
+    let live = std::process::id();
+    let orphans = [
+        item.join(format!(".fit.{dead}.tmp.json")),
+        item.join(format!("chains/.chain-1.{dead}.tmp.csv")),
+        item.join(format!(".batch-item.{dead}.tmp.json")),
+        d.path().join(format!("o/.summary.{dead}.tmp.csv")),
+    ];
+    let kept = [
+        // Being written by a live process.
+        item.join(format!(".fit.{live}.tmp.json")),
+        // Another shard's summary, in the folder shards share.
+        d.path()
+            .join(format!("o/.summary-shard-1-of-2.{dead}.tmp.csv")),
+        // Not a name hbis makes.
+        item.join("notes.tmp"),
+        item.join(format!(".fit.{dead}.tmp.json.bak")),
+    ];
+    for p in orphans.iter().chain(&kept) {
+        std::fs::write(p, "x").unwrap();
+    }
+    run();
+    for p in &orphans {
+        assert!(!p.exists(), "left: {}", p.display());
+    }
+    for p in &kept {
+        assert!(p.exists(), "removed: {}", p.display());
     }
 }
