@@ -62,10 +62,10 @@ pub fn run(a: Args) -> Result<()> {
     }
     if a.collect {
         let path = batch_run::collect(&study, &plans, &a.out, &a.manifest)?;
-        eprintln!("wrote {} ({} items)", path.display(), plans.len());
+        say!("wrote {} ({} items)", path.display(), plans.len());
         return Ok(());
     }
-    eprintln!(
+    say!(
         "study {}: {} items ({} records x {} models x {} seeds); shard {shard}: {} items",
         a.manifest.display(),
         plans.len(),
@@ -81,12 +81,12 @@ pub fn run(a: Args) -> Result<()> {
     };
     let mut on_event = |e: Event<'_>| match e {
         Event::Skipped { n, of, plan } => {
-            eprintln!(
+            say!(
                 "[{n}/{of}] {}: complete, skipped",
                 describe(&study, &plan.item)
             )
         }
-        Event::Fitting { n, of, plan } => eprintln!(
+        Event::Fitting { n, of, plan } => say!(
             "[{n}/{of}] {}: fitting into {}",
             describe(&study, &plan.item),
             plan.folder.display()
@@ -96,17 +96,17 @@ pub fn run(a: Args) -> Result<()> {
             of,
             plan,
             seconds,
-        } => eprintln!(
+        } => say!(
             "[{n}/{of}] {}: done in {seconds:.1} s",
             describe(&study, &plan.item)
         ),
-        Event::Failed { n, of, plan, chain } => eprintln!(
+        Event::Failed { n, of, plan, chain } => say!(
             "[{n}/{of}] {}: error: {}",
             describe(&study, &plan.item),
             chain.join(": ")
         ),
         Event::Summary { path, items } => {
-            eprintln!("wrote {} ({items} items)", path.display())
+            say!("wrote {} ({items} items)", path.display())
         }
     };
     batch_run::run(

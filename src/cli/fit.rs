@@ -268,7 +268,7 @@ pub fn run(a: Args) -> Result<()> {
 /// fit itself is complete.
 pub fn drop_checkpoint(dir: &Path) {
     if let Err(e) = hbis::study::outputs::drop_checkpoint(dir) {
-        eprintln!(
+        say!(
             "warning: could not remove the checkpoint {}: {e} (the fit is complete; remove it by hand)",
             dir.display()
         );

@@ -17,6 +17,15 @@
 //! ```
 //! `examples/custom_cli.rs` does it with a gap spring.
 
+/// `eprintln!` that never panics: a closed or full stderr loses the line,
+/// not the run (`eprintln!` panics with "failed printing to stderr").
+macro_rules! say {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stderr(), $($arg)*);
+    }};
+}
+
 mod batch;
 mod convert;
 mod criticize;

@@ -109,7 +109,7 @@ pub fn run(a: Args) -> Result<()> {
     let record = a.motion.as_deref().map(InputEntry::of).transpose()?;
     dir.finish("predict", a.seed, &job.model.name(), record)?;
     for w in &p.warnings {
-        eprintln!("warning: {w}");
+        say!("warning: {w}");
     }
     if a.json {
         return super::print_stdout(&json);
@@ -198,7 +198,7 @@ fn draws(a: &Args) -> Result<(Model, Vec<Draw>, Option<u64>)> {
             let fit = FitDraws::read_with(dir, &registry)
                 .with_context(|| format!("--fit {}", dir.display()))?;
             if fit.draws.len() < a.draws {
-                eprintln!(
+                say!(
                     "warning: the fit holds {} draws, fewer than --draws {}: all are used",
                     fit.draws.len(),
                     a.draws

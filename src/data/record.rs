@@ -45,6 +45,30 @@ pub enum RecordError {
     /// The header lacks a required column.
     #[error("header (row 1) has no column `{column}` (found: {found})")]
     Header { column: &'static str, found: String },
+    /// The header names a column twice: which one holds the data is a guess.
+    #[error(
+        "header (row 1) names column `{column}` {count} times (found: {found}): rename all but one"
+    )]
+    DuplicateColumn {
+        column: &'static str,
+        count: usize,
+        found: String,
+    },
+    /// The file is not UTF-8 text.
+    #[error("{path}, line {line}: byte {byte} of the line is not UTF-8 text; save the record as UTF-8 (or ASCII) CSV")]
+    NotUtf8 {
+        path: String,
+        line: usize,
+        byte: usize,
+    },
+    /// The sampling step is too coarse for any release test.
+    #[error("the time step is {dt} s after the release (rows {first_row}-{last_row}), coarser than the {max} s any release test needs; is the time column in milliseconds? (t must be in seconds)")]
+    StepTooCoarse {
+        dt: f64,
+        max: f64,
+        first_row: usize,
+        last_row: usize,
+    },
     /// A field is not a number.
     #[error("row {row}, column `{column}`: expected a number, found `{value}`")]
     Parse {
@@ -113,8 +137,9 @@ pub enum RecordError {
         value: f64,
     },
     /// The acceleration is too large to square: every fit would overflow.
-    #[error("rows {first_row}-{last_row}, column `a`: values up to {peak:e} m/s^2 are too large to fit (their squares overflow); check the record's scale")]
+    #[error("row {row}, column `a`: {peak:e} m/s^2 is too large to fit (the squares of the samples after the release, rows {first_row}-{last_row}, overflow); check this sample and the record's scale")]
     TooLarge {
+        row: usize,
         first_row: usize,
         last_row: usize,
         peak: f64,
@@ -133,6 +158,12 @@ pub enum RecordError {
 
 /// Fewest samples after the release that a fit accepts.
 pub const MIN_SAMPLES: usize = 20;
+
+/// The coarsest sampling step a record may have (s): 10 Hz cannot follow
+/// the reversals of a 1-3 s isolation period at all (steps above 0.05 s
+/// are a warning, [`crate::data::validation::DT_RANGE`]). A time column in
+/// milliseconds gives steps of 1 to 20 "s" and a search that never ends.
+pub const MAX_STEP: f64 = 0.1;
 
 /// Most samples a record may hold: a release test sampled at 200 Hz for
 /// 10,000 s. A free-vibration release test lasts tens of seconds; a longer
@@ -326,9 +357,19 @@ impl Record {
 
     /// Reads a record file (CSV or whitespace-separated text).
     pub fn read(path: &Path) -> Result<Self, RecordError> {
-        let text = std::fs::read_to_string(path).map_err(|source| RecordError::Io {
+        let bytes = std::fs::read(path).map_err(|source| RecordError::Io {
             path: path.display().to_string(),
             source,
+        })?;
+        let text = String::from_utf8(bytes).map_err(|e| {
+            let at = e.utf8_error().valid_up_to();
+            let head = &e.as_bytes()[..at];
+            let line_start = head.iter().rposition(|&b| b == b'\n').map_or(0, |i| i + 1);
+            RecordError::NotUtf8 {
+                path: path.display().to_string(),
+                line: 1 + head.iter().filter(|&&b| b == b'\n').count(),
+                byte: 1 + at - line_start,
+            }
         })?;
         Self::parse(&text, 2)
     }
@@ -367,6 +408,19 @@ impl Record {
                 };
                 it = find("t")?;
                 ia = find("a")?;
+                for name in ["t", "a"] {
+                    let count = fields
+                        .iter()
+                        .filter(|f| f.eq_ignore_ascii_case(name))
+                        .count();
+                    if count > 1 {
+                        return Err(RecordError::DuplicateColumn {
+                            column: name,
+                            count,
+                            found: fields.join(", "),
+                        });
+                    }
+                }
                 lines.next();
             }
         }
@@ -731,10 +785,24 @@ impl Record {
             });
         }
         if !after.iter().map(|v| v * v).sum::<f64>().is_finite() {
+            let (i, peak) = after
+                .iter()
+                .map(|v| v.abs())
+                .enumerate()
+                .fold((0, 0.0f64), |m, (i, v)| if v > m.1 { (i, v) } else { m });
             return Err(RecordError::TooLarge {
+                row: self.rows[first + i],
                 first_row: self.rows[first],
                 last_row: self.rows[self.len() - 1],
-                peak: after.iter().fold(0.0f64, |m, v| m.max(v.abs())),
+                peak,
+            });
+        }
+        if dt > MAX_STEP {
+            return Err(RecordError::StepTooCoarse {
+                dt,
+                max: MAX_STEP,
+                first_row: self.rows[first],
+                last_row: self.rows[self.len() - 1],
             });
         }
         let t0 = t0.unwrap_or(t[0]).min(t[0]);
@@ -861,6 +929,46 @@ mod tests {
             s.push_str(&format!("{},{a},x\n", i as f64 * 0.005));
         }
         s
+    }
+
+    /// Issue 37: each of these read as something else without a word.
+    #[test]
+    fn hostile_records_are_refused_naming_the_place() {
+        let e = Record::parse("t,a,a\n0,1,2\n", 1).unwrap_err().to_string();
+        assert!(e.contains("names column `a` 2 times"), "{e}");
+        let mut text = String::from("t,a\n");
+        for i in 0..300 {
+            let a = if i == 150 {
+                1e308
+            } else {
+                (0.02 * i as f64).cos()
+            };
+            text += &format!("{},{a}\n", i as f64 * 0.005);
+        }
+        let e = Record::parse(&text, 2)
+            .unwrap()
+            .aligned(Some(0.0))
+            .unwrap_err()
+            .to_string();
+        assert!(e.starts_with("row 152, column `a`: 1e308"), "{e}");
+        // Milliseconds in the time column: a step of 5 "s".
+        let ms: String = (0..300)
+            .map(|i| format!("{},{}\n", 5 * i, (0.02 * i as f64).cos()))
+            .collect();
+        let e = Record::parse(&ms, 2)
+            .unwrap()
+            .aligned(Some(0.0))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("time step is 5 s") && e.contains("milliseconds"),
+            "{e}"
+        );
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("r.csv");
+        std::fs::write(&path, b"t,a\n0,1\n0.01,\xff2\n").unwrap();
+        let e = Record::read(&path).unwrap_err().to_string();
+        assert!(e.contains("line 3: byte 6 of the line is not UTF-8"), "{e}");
     }
 
     #[test]

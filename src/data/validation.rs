@@ -10,6 +10,7 @@
 //! | `outliers` | single-sample outliers ([`Record::outliers`]) |
 //! | `dc-offset` | the samples before the release average far from zero |
 //! | `no-release` | the peak \|a\| is under 8 times the noise level |
+//! | `short-record` | the record ends while the motion is still large (its last 5 % reach half the peak \|a\|) |
 //!
 //! A record constant from the release on is not a warning but an error of
 //! [`Record::aligned`] ([`crate::data::RecordError::Constant`]): nothing
@@ -145,6 +146,34 @@ pub const RELEASE_SNR: f64 = 8.0;
 /// Fewest samples before the release from which an offset is judged.
 pub const MIN_PRE_RELEASE: usize = 10;
 
+/// A record is cut short when the peak |a| of its last [`END_SHARE`] of
+/// samples (at least [`END_MIN`]) exceeds this share of its peak: a release
+/// test ends at rest (the slider sticks, the acceleration vanishes), while a
+/// record cut in its first swings ends near its peak.
+pub const STILL_MOVING: f64 = 0.5;
+/// The share of the record judged as its end.
+pub const END_SHARE: f64 = 0.05;
+/// Fewest samples judged as the end.
+pub const END_MIN: usize = 5;
+
+/// How a record ends while still moving.
+struct End {
+    window: usize,
+    ratio: f64,
+}
+
+fn still_moving(a: &[f64]) -> Option<End> {
+    let peak = a.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    let window = ((a.len() as f64 * END_SHARE) as usize)
+        .max(END_MIN)
+        .min(a.len());
+    let last = a[a.len() - window..]
+        .iter()
+        .fold(0.0f64, |m, v| m.max(v.abs()));
+    let ratio = last / peak;
+    (peak > 0.0 && ratio > STILL_MOVING).then_some(End { window, ratio })
+}
+
 /// `x` to 4 significant digits: plain from 0.001 to 10^5, else in
 /// scientific notation (`0.01967`, `2.386`, `6.231e-5`).
 fn num(x: f64) -> String {
@@ -217,6 +246,22 @@ pub fn record_warnings(record: &Record, aligned: &Aligned) -> Vec<Warning> {
                 num(peak),
                 peak / noise,
                 num(noise)
+            ),
+        ));
+    }
+
+    if let Some(end) = still_moving(&aligned.a).filter(|_| !no_release) {
+        out.push(Warning::new(
+            "short-record",
+            format!(
+                "the record ends while the system still moves: its last {} samples reach {:.0} % \
+                 of the peak |a| ({} samples, {} s after the release); a release test is recorded \
+                 until the motion stops, and from part of it the parameters, even u0, are poorly \
+                 determined; give the whole record",
+                end.window,
+                100.0 * end.ratio,
+                aligned.a.len(),
+                num(aligned.duration())
             ),
         ));
     }
@@ -375,6 +420,25 @@ mod tests {
         w[0].message.clone()
     }
 
+    /// Issue 37: the first 20 rows of a release were fitted with u0 3 times
+    /// off and no word; the whole record raises no such warning.
+    #[test]
+    fn a_record_cut_to_its_first_swing_is_called_short() {
+        let rec = test5(0);
+        assert!(
+            !codes(&rec).contains(&"short-record".to_string()),
+            "{:#?}",
+            warnings(&rec)
+        );
+        let head = Record::new(rec.t()[..20].to_vec(), rec.a()[..20].to_vec()).unwrap();
+        let w = warnings(&head);
+        let short = w
+            .iter()
+            .find(|w| w.code == "short-record")
+            .expect("short-record");
+        assert!(short.message.contains("(20 samples"), "{}", short.message);
+    }
+
     /// The five Table 8.1 columns (Tests 3, 5, 6, 7, 8: the table has no
     /// others) and three random sets within 15 % of them.
     fn parameter_sets() -> Vec<Vec<f64>> {
@@ -412,17 +476,26 @@ mod tests {
     #[test]
     fn a_time_column_in_milliseconds_or_hours_is_flagged() {
         let rec = test5(0);
+        // Milliseconds (a step of 5 "s") are refused outright (issue 37: the
+        // search ran for over 11 minutes); a coarse step is a warning.
         let ms = Record::new(
             rec.t().iter().map(|t| t * 1000.0).collect(),
             rec.a().to_vec(),
-        );
-        let msg = only(&ms.unwrap(), "sampling-interval");
+        )
+        .unwrap();
+        let e = ms.aligned(None).unwrap_err().to_string();
         assert!(
-            msg.contains("step 5.000 s (0.2000 Hz) is too coarse"),
+            e.contains("time step is 5 s") && e.contains("milliseconds"),
+            "{e}"
+        );
+        let coarse = Record::new(rec.t().iter().map(|t| t * 16.0).collect(), rec.a().to_vec());
+        let msg = only(&coarse.unwrap(), "sampling-interval");
+        assert!(
+            msg.contains("step 0.08000 s (12.50 Hz) is too coarse"),
             "{msg}"
         );
         assert!(
-            msg.contains("in milliseconds, the step is 5.000 ms (200.0 Hz)"),
+            msg.contains("in milliseconds, the step is 0.08000 ms (12500 Hz)"),
             "{msg}"
         );
         let h = Record::new(

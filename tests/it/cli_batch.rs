@@ -284,3 +284,32 @@ fn a_rerun_removes_the_temporary_files_killed_runs_left_and_nothing_else() {
         assert!(p.exists(), "removed: {}", p.display());
     }
 }
+
+/// Issue 37: a full stderr (`/dev/full`) panicked in `eprintln!` (exit
+/// 101); the lines are lost, the run is not.
+#[test]
+fn a_full_stderr_loses_lines_not_the_run() {
+    let d = tempfile::tempdir().unwrap();
+    study_of(d.path(), 1);
+    let full = std::fs::OpenOptions::new()
+        .write(true)
+        .open("/dev/full")
+        .unwrap();
+    // Shard 2 of 2 holds no item: it prints its plan and writes its summary.
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_hbis"))
+        .current_dir(d.path())
+        .args([
+            "batch",
+            "--manifest",
+            "study.toml",
+            "--out",
+            "o",
+            "--shard",
+            "2/2",
+        ])
+        .stderr(full)
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(0));
+    assert!(d.path().join("o/summary-shard-2-of-2.csv").exists());
+}

@@ -247,7 +247,10 @@ fn bad_predict_input_exits_2_naming_what_is_wrong() {
             vec!["twice.json", "--synthetic"],
             "duplicate key `u0` at line 1 column 19",
         ),
-        (vec!["zero.json", "--synthetic"], "`u0` = 0: must be nonzero"),
+        (
+            vec!["zero.json", "--synthetic"],
+            "`u0` = 0: must be nonzero",
+        ),
     ];
     for (rest, needle) in cases {
         let args: Vec<&str> = base.iter().copied().chain(rest.iter().copied()).collect();
@@ -372,4 +375,29 @@ fn predict_refuses_a_fit_folder_that_is_not_what_its_run_wrote() {
         assert!(stderr(&o).contains(needle), "{what}: {}", stderr(&o));
         assert!(!d.path().join(out).join("predict.json").exists(), "{what}");
     }
+}
+
+/// Issue 37: a full stderr (`/dev/full`) panicked in `eprintln!` (exit
+/// 101) when predict printed a warning; the line is lost, the run is not.
+#[test]
+fn a_full_stderr_loses_lines_not_the_run() {
+    let d = tempfile::tempdir().unwrap();
+    finished_fit(
+        &d.path().join("fit"),
+        r#"{"model": "trilinear+lcfm+viscous", "seed": 1}"#,
+        &[CHAIN],
+    );
+    let full = std::fs::OpenOptions::new()
+        .write(true)
+        .open("/dev/full")
+        .unwrap();
+    // One draw in the fit: "fewer than --draws 1000" goes to stderr.
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_hbis"))
+        .current_dir(d.path())
+        .args(["predict", "--fit", "fit", "--synthetic", "--out", "p"])
+        .stderr(full)
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(0));
+    assert!(d.path().join("p/predict.json").exists());
 }

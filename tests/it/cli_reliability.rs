@@ -509,7 +509,11 @@ fn odd_records_give_an_error_or_a_warning_that_names_the_problem() {
         assert!(codes.iter().any(|c| c == code), "{name}: {codes:?}");
         assert!(stderr(&o).contains(&format!("warning [{code}]")), "{name}");
     };
-    warned("ms.csv", "sampling-interval");
+    // A time column in milliseconds is refused (issue 37: its search ran
+    // for over 11 minutes), naming the likely cause.
+    let (o, _) = fit("ms.csv", &[]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("milliseconds"), "{}", stderr(&o));
     warned("mm.csv", "acceleration-units");
     warned("g.csv", "acceleration-units");
     warned("noise.csv", "no-release");
