@@ -21,7 +21,8 @@
 //!   at any moment resumes from the last complete chunk and ends with
 //!   exactly the result of an uninterrupted run.
 //! - **Integrity.** The state file holds, per ensemble, the length and the
-//!   64-bit FNV-1a checksum of the steps it covers. A checkpoint is resumed
+//!   64-bit FNV-1a checksum of the steps it covers, and a checksum of its
+//!   own content (acceptance counts included). A checkpoint is resumed
 //!   only if the state parses, has this format version and the run's
 //!   fingerprint, and every chain file holds those bytes with finite values;
 //!   otherwise it is discarded (the reason in
@@ -477,7 +478,7 @@ fn start<D: LogDensity>(
 
 /// Version of the checkpoint format (`state.json` and the chain files); a
 /// checkpoint of another version is discarded.
-const FORMAT_VERSION: u32 = 2;
+const FORMAT_VERSION: u32 = 3;
 
 const FNV_OFFSET: u64 = 0xcbf2_9ce4_8422_2325;
 
@@ -499,6 +500,16 @@ struct State {
     accepted: Vec<Vec<u64>>,
     /// Per ensemble: what its chain file holds for the first `steps` steps.
     files: Vec<FileSum>,
+    /// 64-bit FNV-1a of the fields above ([`state_sum`]), 16 hex digits: an
+    /// edited acceptance count would otherwise be resumed as it stands.
+    state_fnv1a: String,
+}
+
+/// The checksum of a state's content (steps, chunks, acceptance counts and
+/// file sums, as compact JSON).
+fn state_sum(steps: usize, chunks: u64, accepted: &[Vec<u64>], files: &[FileSum]) -> String {
+    let body = serde_json::to_string(&(steps, chunks, accepted, files)).expect("state serialises");
+    format!("{:016x}", fnv1a(FNV_OFFSET, body.as_bytes()))
 }
 
 #[derive(Debug, Clone, Serialize, Deserialize)]
@@ -592,6 +603,12 @@ impl Checkpoint {
                 ))
             }
         };
+        if state.state_fnv1a != state_sum(state.steps, state.chunks, &state.accepted, &state.files)
+        {
+            return Restored::Discarded(format!(
+                "{state_label}: its checksum does not match its content (edited or corrupted)"
+            ));
+        }
         if state.fingerprint != fingerprint {
             return Restored::Discarded(format!(
                 "{} belongs to another configuration (seed, model, settings or record differ)",
@@ -793,12 +810,20 @@ impl Checkpoint {
                 fnv1a: format!("{:016x}", sums[e]),
             });
         }
+        let (steps, accepted) = (
+            chains[0].steps(),
+            chains
+                .iter()
+                .map(|c| c.accepted().to_vec())
+                .collect::<Vec<_>>(),
+        );
         let state = State {
             version: FORMAT_VERSION,
             fingerprint: fingerprint.to_string(),
-            steps: chains[0].steps(),
+            state_fnv1a: state_sum(steps, chunks, &accepted, &files),
+            steps,
             chunks,
-            accepted: chains.iter().map(|c| c.accepted().to_vec()).collect(),
+            accepted,
             files,
         };
         let tmp = self.dir.join("state.json.tmp");
@@ -1476,6 +1501,36 @@ mod tests {
         assert_same(&again, &fresh);
     }
 
+    /// Sets a state's own checksum to match its (edited) content.
+    fn forge_state_sum(v: &mut serde_json::Value) {
+        let files: Vec<FileSum> = serde_json::from_value(v["files"].clone()).unwrap();
+        let accepted: Vec<Vec<u64>> = serde_json::from_value(v["accepted"].clone()).unwrap();
+        let steps = v["steps"].as_u64().unwrap() as usize;
+        let chunks = v["chunks"].as_u64().unwrap();
+        v["state_fnv1a"] = state_sum(steps, chunks, &accepted, &files).into();
+    }
+
+    /// Issue 37: `accepted` was outside every checksum, so an edited count
+    /// was resumed (and changed the reported acceptance) as it stood.
+    #[test]
+    fn an_edited_acceptance_count_is_discarded() {
+        let fresh = run_small(None, 300, 9);
+        let (_d, cp) = checkpointed();
+        let state = cp.join("state.json");
+        let mut v: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&state).unwrap()).unwrap();
+        let n = v["accepted"][1][0].as_u64().unwrap();
+        v["accepted"][1][0] = (n ^ 1).into();
+        std::fs::write(&state, v.to_string()).unwrap();
+        let again = run_small(Some(&cp), 300, 9);
+        let reason = discarded(&again);
+        assert!(
+            reason.contains("checkpoint/state.json: its checksum does not match its content"),
+            "{reason}"
+        );
+        assert_same(&again, &fresh);
+    }
+
     #[test]
     fn non_finite_values_under_a_matching_checksum_are_discarded() {
         let fresh = run_small(None, 300, 9);
@@ -1488,6 +1543,7 @@ mod tests {
         let mut v: serde_json::Value =
             serde_json::from_str(&std::fs::read_to_string(&state).unwrap()).unwrap();
         v["files"][3]["fnv1a"] = format!("{sum:016x}").into();
+        forge_state_sum(&mut v);
         std::fs::write(&state, v.to_string()).unwrap();
         let again = run_small(Some(&cp), 300, 9);
         let reason = discarded(&again);
