@@ -1044,6 +1044,14 @@ pub fn raw_e2_limit(fit: &ModelFit, n: usize) -> f64 {
         .iter()
         .position(|x| x == "rho")
         .map_or(0.0, |k| fit.theta[k].abs().min(0.999));
+    e2_limit(rho, n)
+}
+
+/// `1 + RAW_E2_SE sqrt(2 / n_eff)`, `n_eff = n (1 - |rho|) / (1 + |rho|)`:
+/// the most a raw `e2` may exceed another on the same record by the noise
+/// alone, for noise of lag-one correlation `rho` (0: white).
+fn e2_limit(rho: f64, n: usize) -> f64 {
+    let rho = rho.abs().min(0.999);
     let n_eff = (n as f64 * (1.0 - rho) / (1.0 + rho)).max(1.0);
     1.0 + RAW_E2_SE * (2.0 / n_eff).sqrt()
 }
@@ -1333,7 +1341,7 @@ pub fn choose_noise(
         .copied()
         .unwrap_or(0.0);
     let raw_e2_ratio = ar1_fit.map.eval.e2 / e2_white;
-    let raw_e2_limit = 1.0 + RAW_E2_SE * (2.0 / data.a.len().max(1) as f64).sqrt();
+    let raw_e2_limit = e2_limit(0.0, data.a.len());
     Ok(NoiseChoice {
         chosen: if ar1.bic < bic_white && raw_e2_ratio <= raw_e2_limit {
             Noise::Ar1

@@ -8,24 +8,13 @@ use bin::{hbis, stderr};
 
 use std::path::Path;
 
-use hbis::data::synthesize;
 use hbis::model::{ModelSpec, Params};
-use rand::{rngs::StdRng, SeedableRng};
 
 /// A Test 5 record (as in `cli_fit.rs`), released at t = 0.
 fn record(dir: &Path) {
     let spec = ModelSpec::FULL;
     let truth = Params::table_8_1(5).unwrap().to_theta(&spec);
-    let mut rng = StdRng::seed_from_u64(9);
-    let syn = synthesize(
-        &hbis::model::Model::from(spec),
-        &truth,
-        0.005,
-        2001,
-        0.015,
-        &mut rng,
-    )
-    .unwrap();
+    let (syn, _, _) = crate::common::noisy_record(&hbis::model::Model::from(spec), &truth, 9);
     let mut text = String::from("t,a\n");
     for (t, a) in syn.record.t().iter().zip(syn.record.a()) {
         text.push_str(&format!("{t},{a}\n"));

@@ -7,7 +7,6 @@ use bin::{hbis, stderr};
 
 use std::path::Path;
 
-use hbis::data::synthesize;
 use hbis::model::{ModelSpec, Params};
 use rand::{rngs::StdRng, SeedableRng};
 
@@ -15,16 +14,7 @@ use rand::{rngs::StdRng, SeedableRng};
 fn record(dir: &Path) {
     let spec = ModelSpec::FULL;
     let truth = Params::table_8_1(7).unwrap().to_theta(&spec);
-    let mut rng = StdRng::seed_from_u64(77);
-    let syn = synthesize(
-        &hbis::model::Model::from(spec),
-        &truth,
-        0.005,
-        2001,
-        0.015,
-        &mut rng,
-    )
-    .unwrap();
+    let (syn, _, _) = crate::common::noisy_record(&hbis::model::Model::from(spec), &truth, 77);
     std::fs::write(dir.join("rec.csv"), syn.record.to_csv()).unwrap();
 }
 

@@ -8,7 +8,6 @@ use bin::{hbis, hbis_with, stderr};
 use std::path::Path;
 use std::process::Command;
 
-use hbis::data::synthesize;
 use hbis::model::{ModelSpec, Params};
 use rand::{rngs::StdRng, SeedableRng};
 
@@ -16,16 +15,7 @@ use rand::{rngs::StdRng, SeedableRng};
 fn record(dir: &Path) {
     let spec = ModelSpec::FULL;
     let truth = Params::table_8_1(5).unwrap().to_theta(&spec);
-    let mut rng = StdRng::seed_from_u64(9);
-    let syn = synthesize(
-        &hbis::model::Model::from(spec),
-        &truth,
-        0.005,
-        2001,
-        0.015,
-        &mut rng,
-    )
-    .unwrap();
+    let (syn, _, _) = crate::common::noisy_record(&hbis::model::Model::from(spec), &truth, 9);
     let mut text = String::from("t,a\n");
     for i in 0..80 {
         text.push_str(&format!(
