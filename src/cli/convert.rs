@@ -2,9 +2,8 @@
 
 use std::path::PathBuf;
 
-use anyhow::{bail, Result};
+use anyhow::{Context, Result};
 use hbis::model::physical::Physical;
-use hbis::model::ForwardModel;
 
 use super::inputs;
 
@@ -34,13 +33,7 @@ pub struct Args {
 pub fn run(a: Args) -> Result<()> {
     let registry = a.effects.registry()?;
     let model = inputs::model(&registry, &a.model)?;
-    if let Some(law) = model.forces().iter().find(|c| c.spring_law()) {
-        bail!(
-            "--model `{}`: eq. 8.1 converts the bilinear and trilinear springs; `{}` replaces the spring law",
-            model.name(),
-            law.name()
-        );
-    }
+    hbis::model::physical::check_convertible(&model).context("--model")?;
     let theta = inputs::model_params(&model, &a.params)?;
     let p = model.core_params(&theta)?;
     let q = Physical::from_params(&model.spec(), &p, a.released_force, a.static_friction)?;

@@ -136,6 +136,9 @@ impl ChainArgs {
 pub fn run(a: Args) -> Result<()> {
     let registry = a.effects.registry()?;
     let model = inputs::model(&registry, &a.model)?;
+    if a.released_force.is_some() {
+        hbis::model::physical::check_convertible(&model).context("--released-force")?;
+    }
     let noise = Noise::parse(&a.noise)
         .with_context(|| format!("--noise `{}`: expected `white` or `ar1`", a.noise))?;
     let (data, record_warnings) = inputs::record(&a.data, &a.record, a.t0)?;

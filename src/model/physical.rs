@@ -58,6 +58,21 @@ pub enum PhysicalError {
         "the virgin spring force at u0 is {0} per unit mass; it must be > 0 for a mass to follow"
     )]
     SpringForce(f64),
+    /// A component replaces the spring law eq. 8.1 reads.
+    #[error("model `{model}`: eq. 8.1 converts the bilinear and trilinear springs; `{law}` replaces the spring law")]
+    SpringLaw { model: String, law: String },
+}
+
+/// Refuses a model whose spring law a component replaces: eq. 8.1 reads
+/// the core's bilinear or trilinear spring, which such a model does not use.
+pub fn check_convertible(model: &super::Model) -> Result<(), PhysicalError> {
+    match model.forces().iter().find(|c| c.spring_law()) {
+        Some(law) => Err(PhysicalError::SpringLaw {
+            model: crate::model::ForwardModel::name(model),
+            law: law.name().to_string(),
+        }),
+        None => Ok(()),
+    }
 }
 
 impl Physical {

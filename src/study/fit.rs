@@ -160,6 +160,9 @@ pub fn fit_record(
     progress: &mut dyn FnMut(Progress),
 ) -> Result<Fit, StudyError> {
     let model: Model = model.into();
+    if options.forces.is_some() {
+        crate::model::physical::check_convertible(&model)?;
+    }
     let priors = priors.unwrap_or_else(|| Posterior::default_priors(&model, noise));
     let mut rng = StdRng::seed_from_u64(options.seed);
     let mut fit = fit_map(

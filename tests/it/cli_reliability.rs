@@ -610,3 +610,36 @@ fn odd_records_give_an_error_or_a_warning_that_names_the_problem() {
     assert!(o.status.success(), "{}", stderr(&o));
     assert_eq!(codes, ["structured-residual"], "{codes:?}");
 }
+
+/// Eq. 8.1 reads the core's spring: `fit --released-force` of a model whose
+/// spring law a component replaces was converted without a word (`convert`
+/// refused it); now both refuse it before any work.
+#[test]
+fn released_forces_are_refused_for_a_replaced_spring_law() {
+    let d = tempfile::tempdir().unwrap();
+    record(d.path());
+    let o = hbis(
+        d.path(),
+        &[
+            "fit",
+            "--data",
+            "rec.csv",
+            "--out",
+            "o",
+            "--model",
+            "bouc-wen+coulomb",
+            "--released-force",
+            "1000",
+            "--static-friction",
+            "100",
+        ],
+    );
+    no_panic(&o);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("--released-force: model `bouc-wen+coulomb`: eq. 8.1 converts the bilinear and trilinear springs; `bouc-wen` replaces the spring law"),
+        "{}",
+        stderr(&o)
+    );
+    assert!(!d.path().join("o").exists());
+}
