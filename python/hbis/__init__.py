@@ -16,14 +16,21 @@ samples, a simulated grid of more than 1e7) are refused before anything is
 allocated. Long runs release the GIL and raise ``KeyboardInterrupt`` on
 Ctrl-C at once; an exception raised by a ``progress`` callback ends the
 run and is raised from the call.
+
+The public API is ``__all__``: its functions and classes and the
+constants ``DEFAULT_MODEL`` (the default model, ``hbis fit``'s),
+``PHYSICAL`` (the names of eq. 8.1's quantities, in the order of
+:meth:`Fit.physical`) and ``PHYSICAL_UNITS`` (their units, Table 8.2's).
+A motion for :func:`predict` and :meth:`Fit.predict` is the ``(t, ag)``
+that :func:`ground_motion` and :func:`read_motion` return, or ``ag, dt``.
 """
 
-from __future__ import annotations
+# Helper imports under private names: the namespace is the public API
+# (`__all__`) and nothing else.
+import json as _json
+import typing as _t
 
-import json
-from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple
-
-import numpy as np
+import numpy as _np
 
 from . import _hbis
 
@@ -37,18 +44,18 @@ PHYSICAL_UNITS = ("t", "kN/m", "kN/m", "kN/m", "kN/m", "kN s/m")
 DEFAULT_MODEL = "trilinear+lcfm+viscous"
 
 
-def table_8_1(k: int) -> Dict[str, float]:
+def table_8_1(k: int) -> dict[str, float]:
     """The identified parameters of Solarino test ``k`` (3, 5, 6, 7 or 8), Table 8.1, SI units."""
     return _hbis.table_8_1(int(k))
 
 
-def _effects(effects: Sequence[str]) -> List[str]:
+def _effects(effects: _t.Sequence[str]) -> list[str]:
     if isinstance(effects, (str, bytes)):
         effects = [effects]
     return [str(e) for e in effects]
 
 
-def param_names(model: str = DEFAULT_MODEL, *, effects: Sequence[str] = ()) -> List[str]:
+def param_names(model: str = DEFAULT_MODEL, *, effects: _t.Sequence[str] = ()) -> list[str]:
     """The parameter names of ``model`` in their order (noise parameters
     excluded). ``effects``: effect files (TOML) whose components ``model``
     may name, as the binary's ``--effects`` (docs/components.md)."""
@@ -56,8 +63,8 @@ def param_names(model: str = DEFAULT_MODEL, *, effects: Sequence[str] = ()) -> L
 
 
 def simulate(
-    model: str, params: Dict[str, float], dt: float, duration: float, *, effects: Sequence[str] = ()
-) -> Tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    model: str, params: dict[str, float], dt: float, duration: float, *, effects: _t.Sequence[str] = ()
+) -> tuple[_np.ndarray, _np.ndarray, _np.ndarray, _np.ndarray]:
     """Free vibration after release: arrays ``(t, u, v, a)`` at ``t_i = i dt``.
 
     ``params`` maps every parameter of ``model`` (see :func:`param_names`)
@@ -70,11 +77,28 @@ def simulate(
 
 class Record:
     """A measured (or synthetic) release-test record: time ``t`` (s) and
-    acceleration ``a`` (m/s^2), checked as the binary checks a file."""
+    acceleration ``a`` (m/s^2), checked as the binary checks a file.
 
-    def __init__(self, t: Sequence[float], a: Sequence[float], t0: Optional[float] = None):
-        self.t = np.ascontiguousarray(t, dtype=float)
-        self.a = np.ascontiguousarray(a, dtype=float)
+    Attributes
+    ----------
+    t, a : numpy.ndarray
+        The record as given: time (s) and acceleration (m/s^2).
+    t0 : float or None
+        The release time given (``None``: detected).
+    source : str
+        The record's name in the reports (``data.source``): the file
+        :meth:`read` read, else ``"array"``.
+    aligned_t, aligned_a : numpy.ndarray
+        The record from the release on, as the fit sees it.
+    release : float
+        The release time (s, the record's clock).
+    release_source : str
+        ``"given"`` (``t0``) or ``"detected"``.
+    """
+
+    def __init__(self, t: _t.Sequence[float], a: _t.Sequence[float], t0: _t.Optional[float] = None):
+        self.t = _np.ascontiguousarray(t, dtype=float)
+        self.a = _np.ascontiguousarray(a, dtype=float)
         self.t0 = t0
         # What the reports name it (`data.source`): the file it was read
         # from, as the binary names its --data.
@@ -85,7 +109,7 @@ class Record:
         )
 
     @classmethod
-    def read(cls, path: str, units: str = "m/s2", t0: Optional[float] = None) -> "Record":
+    def read(cls, path: str, units: str = "m/s2", t0: _t.Optional[float] = None) -> "Record":
         """Reads a record file as ``hbis fit --data`` does (CSV with columns
         ``t`` and ``a``, or whitespace-separated text), converting the
         acceleration from ``units`` (``m/s2``, ``g``, ``mm/s2``) to m/s^2."""
@@ -109,7 +133,19 @@ class Record:
 
 
 class Synthetic(Record):
-    """A synthetic record with the truth it was made from."""
+    """A synthetic record with the truth it was made from (a :class:`Record`).
+
+    Attributes
+    ----------
+    clean : numpy.ndarray
+        The acceleration without noise (m/s^2).
+    sigma : float
+        The noise's standard deviation (m/s^2).
+    model : str
+        The model it was made with.
+    truth : dict
+        The parameters it was made with, by name.
+    """
 
     def __init__(self, t, a, clean, sigma, model, params):
         super().__init__(t, a)
@@ -121,13 +157,13 @@ class Synthetic(Record):
 
 def synthesize(
     model: str,
-    params: Dict[str, float],
+    params: dict[str, float],
     dt: float = 0.005,
     n: int = 2001,
     noise: float = 0.015,
     seed: int = 1,
     *,
-    effects: Sequence[str] = (),
+    effects: _t.Sequence[str] = (),
 ) -> Synthetic:
     """``model`` with ``params`` sampled ``n`` times at ``dt`` plus white
     Gaussian noise of ``noise`` times the peak |a| (seeded, as the binary's
@@ -147,7 +183,7 @@ class Fit:
     report : dict
         What ``fit.json`` holds (the binary's keys, documented in docs/cli.md).
     map : dict
-        The MAP estimate by parameter name.
+        The MAP estimate by parameter name, in the order of :attr:`names`.
     names : list of str
         Parameter names, in the order of the last axis of :attr:`posterior`.
     posterior : numpy.ndarray or None
@@ -157,22 +193,40 @@ class Fit:
         Log-posterior of each draw, ``(chain, draw)``.
     identifiability : dict or None
         Ranking, weakest parameter, its explanation and the per-parameter table.
+    converged : bool or None
+        Whether the sampler met its stopping rule; ``None`` for a MAP-only fit.
+    seed : int
+        The seed the fit was run with.
+    effects : list of str
+        The effect files the fit was given (used again by :meth:`predict`).
+    thin : int
+        The thinning of :attr:`posterior`: one kept draw every ``thin`` steps.
     """
 
-    def __init__(self, raw: Any, seed: int, effects: Sequence[str] = ()):
+    def __init__(self, raw: _t.Any, seed: int, effects: _t.Sequence[str] = ()):
         self._raw = raw
         self.seed = seed
-        self.effects: List[str] = list(effects)
-        self.names: List[str] = list(raw.names)
-        self.report: Dict[str, Any] = json.loads(raw.report_json)
-        self.map: Dict[str, float] = dict(self.report["map"])
-        self.posterior: Optional[np.ndarray] = raw.draws
+        self.effects: list[str] = list(effects)
+        self.names: list[str] = list(raw.names)
+        self.report: dict[str, _t.Any] = _json.loads(raw.report_json)
+        # In `names` order (fit.json's `map` is alphabetical); a key that is
+        # not a parameter name, if any, after them in the report's order.
+        m = self.report["map"]
+        self.map: dict[str, float] = {n: m[n] for n in self.names if n in m}
+        self.map.update((k, v) for k, v in m.items() if k not in self.map)
+        self.posterior: _t.Optional[_np.ndarray] = raw.draws
         lp = raw.log_prob
-        self.log_prob: Optional[np.ndarray] = None if lp is None else lp[:, :, 0]
+        self.log_prob: _t.Optional[_np.ndarray] = None if lp is None else lp[:, :, 0]
         self.thin: int = raw.thin
 
     @property
-    def identifiability(self) -> Optional[Dict[str, Any]]:
+    def identifiability(self) -> _t.Optional[dict[str, _t.Any]]:
+        """What the fit says about which parameters the record pins down:
+        ``ranking`` (parameters from best to worst identified), ``weakest``,
+        ``explanation`` (the weakest one's case in words) and the report's
+        per-parameter and design tables (``fit.json``'s ``ranking``,
+        ``weakest``, ``explanation`` and ``identifiability``). ``None`` for a
+        MAP-only fit."""
         r = self.report
         if r.get("ranking") is None:
             return None
@@ -184,11 +238,16 @@ class Fit:
         }
 
     @property
-    def converged(self) -> Optional[bool]:
+    def converged(self) -> _t.Optional[bool]:
+        """Whether the sampler met its stopping rule (``fit.json``'s
+        ``sampling.converged``: the kept chain ``tau_multiple``
+        autocorrelation times long, or the ``ess`` reached, and split R-hat
+        <= 1.01 on every parameter; ``report["sampling"]["not_converged"]``
+        says why not). ``None`` for a MAP-only fit, which has no sampling."""
         s = self.report.get("sampling")
         return None if s is None else bool(s["converged"])
 
-    def physical(self) -> np.ndarray:
+    def physical(self) -> _np.ndarray:
         """Eq. 8.1 per draw: ``(chain, draw, 6)`` of ``m, k0, k1, k2, kF, c``
         (Table 8.2 units). Needs ``forces=(F0n, FfS)`` in :func:`fit`."""
         p = self._raw.physical
@@ -247,21 +306,27 @@ class Fit:
 
     def predict(
         self,
-        ag: Sequence[float],
-        dt: float,
+        ag: _t.Union[_t.Sequence[float], tuple[_t.Sequence[float], _t.Sequence[float]]],
+        dt: _t.Optional[float] = None,
         draws: int = 1000,
         tail: float = 20.0,
-        capacity: Optional[float] = None,
+        capacity: _t.Optional[float] = None,
     ) -> "Prediction":
         """The posterior's response to a ground motion (as ``hbis predict``):
         ``draws`` draws evenly spaced through the chains, each simulated from
-        rest under ``ag`` (m/s^2, step ``dt``) and ``tail`` seconds after; the
-        base shear also in kN when the fit was given forces."""
+        rest under the motion and ``tail`` seconds after; the base shear also
+        in kN when the fit was given forces.
+
+        The motion is the ``(t, ag)`` that :func:`ground_motion` and
+        :func:`read_motion` return (``fit.predict(hbis.ground_motion())``;
+        the step is taken from ``t``, which must be uniform), or ``ag``
+        (m/s^2) and its step ``dt`` (s)."""
         if self.posterior is None:
             raise ValueError("predict(): a MAP-only fit has no posterior draws")
         pooled = self.posterior.reshape(-1, self.posterior.shape[-1])
         n = pooled.shape[0]
         idx = [i * n // draws for i in range(draws)] if draws < n else list(range(n))
+        ag, dt = _motion(ag, dt)
         masses = None
         if self._raw.physical is not None:
             masses = list(self._raw.physical.reshape(-1, len(PHYSICAL))[idx, 0])
@@ -273,11 +338,11 @@ class Fit:
         return f"Fit({self.report['model']}, {len(self.names)} parameters, {state})"
 
 
-def _arrays(record) -> Tuple[np.ndarray, np.ndarray, Optional[float], str]:
+def _arrays(record) -> tuple[_np.ndarray, _np.ndarray, _t.Optional[float], str]:
     if isinstance(record, Record):
         return record.t, record.a, record.t0, record.source
     t, a = record
-    return np.ascontiguousarray(t, dtype=float), np.ascontiguousarray(a, dtype=float), None, "array"
+    return _np.ascontiguousarray(t, dtype=float), _np.ascontiguousarray(a, dtype=float), None, "array"
 
 
 def fit(
@@ -288,19 +353,19 @@ def fit(
     *,
     map_only: bool = False,
     ensembles: int = 2,
-    walkers: Optional[int] = None,
+    walkers: _t.Optional[int] = None,
     tau_multiple: float = 50.0,
     max_steps: int = 20_000,
-    ess: Optional[float] = None,
-    moves: Optional[str] = None,
+    ess: _t.Optional[float] = None,
+    moves: _t.Optional[str] = None,
     max_evals: int = 200_000,
     evidence: bool = False,
-    forces: Optional[Tuple[float, float]] = None,
-    design_target: Optional[float] = 0.5,
-    thin: Optional[int] = None,
-    progress: Optional[Callable[[int, int, float], None]] = None,
-    effects: Sequence[str] = (),
-    source: Optional[str] = None,
+    forces: _t.Optional[tuple[float, float]] = None,
+    design_target: _t.Optional[float] = 0.5,
+    thin: _t.Optional[int] = None,
+    progress: _t.Optional[_t.Callable[[int, int, float], None]] = None,
+    effects: _t.Sequence[str] = (),
+    source: _t.Optional[str] = None,
 ) -> Fit:
     """Fits ``record`` (a :class:`Record` or a ``(t, a)`` pair) with ``model``.
 
@@ -351,11 +416,11 @@ def diagnose(
     noise: str = "white",
     seed: int = 1,
     *,
-    effects: Sequence[str] = (),
-    candidates: Optional[Sequence[str]] = None,
-    exclude: Sequence[str] = (),
-    source: Optional[str] = None,
-) -> Dict[str, Any]:
+    effects: _t.Sequence[str] = (),
+    candidates: _t.Optional[_t.Sequence[str]] = None,
+    exclude: _t.Sequence[str] = (),
+    source: _t.Optional[str] = None,
+) -> dict[str, _t.Any]:
     """``hbis diagnose``: the fit of ``model``, its residual diagnosis and every
     catalog candidate ranked: ``diagnosis.json`` as a dict, key for key (the
     same runner makes both). ``effects``, ``candidates`` and ``exclude`` are
@@ -363,7 +428,7 @@ def diagnose(
     ``source`` is ``data.source`` (default: the file a :class:`Record` was
     read from, else ``"array"``)."""
     t, a, t0, named = _arrays(record)
-    return json.loads(
+    return _json.loads(
         _hbis.diagnose(
             t,
             a,
@@ -385,13 +450,13 @@ def ladder(
     noise: str = "white",
     seed: int = 1,
     max_steps: int = 6,
-    progress: Optional[Callable[[int, str], None]] = None,
+    progress: _t.Optional[_t.Callable[[int, str], None]] = None,
     *,
-    effects: Sequence[str] = (),
-    candidates: Optional[Sequence[str]] = None,
-    exclude: Sequence[str] = (),
-    source: Optional[str] = None,
-) -> Dict[str, Any]:
+    effects: _t.Sequence[str] = (),
+    candidates: _t.Optional[_t.Sequence[str]] = None,
+    exclude: _t.Sequence[str] = (),
+    source: _t.Optional[str] = None,
+) -> dict[str, _t.Any]:
     """``hbis ladder``: add the best supported effect, refit, repeat. Returns
     ``ladder.json`` as a dict, key for key (``model``, ``final_model``,
     ``steps``, ...); ``progress(k, model)`` is called after each step (an
@@ -399,7 +464,7 @@ def ladder(
     ``effects``, ``candidates``, ``exclude`` and ``source`` are as in
     :func:`diagnose`."""
     t, a, t0, named = _arrays(record)
-    return json.loads(
+    return _json.loads(
         _hbis.ladder(
             t,
             a,
@@ -432,17 +497,24 @@ class Prediction:
         ``(draws, 4)``: the four quantities per draw, in the order of :attr:`COLUMNS`.
     warnings : list of str
         Extrapolation beyond the release test, floored friction, units.
+    extrapolation : dict
+        How far the motion drives the draws beyond the release test
+        (``predict.json``'s ``extrapolation``).
+    report : dict
+        The whole of ``predict.json``.
+    COLUMNS : list of str
+        The names of the columns of :attr:`per_draw`.
     """
 
     COLUMNS = ["peak_displacement", "residual_displacement", "peak_base_shear", "peak_total_acceleration"]
 
-    def __init__(self, per_draw: np.ndarray, report: Dict[str, Any]):
+    def __init__(self, per_draw: _np.ndarray, report: dict[str, _t.Any]):
         self.per_draw = per_draw
         self.report = report
-        self.summary: Dict[str, Dict[str, float]] = report["summary"]
-        self.p_exceed_capacity: Optional[float] = report["p_exceed_capacity"]
-        self.extrapolation: Dict[str, float] = report["extrapolation"]
-        self.warnings: List[str] = list(report["warnings"])
+        self.summary: dict[str, dict[str, float]] = report["summary"]
+        self.p_exceed_capacity: _t.Optional[float] = report["p_exceed_capacity"]
+        self.extrapolation: dict[str, float] = report["extrapolation"]
+        self.warnings: list[str] = list(report["warnings"])
 
     def to_dataframe(self):
         """The per-draw quantities as a pandas DataFrame."""
@@ -455,9 +527,55 @@ class Prediction:
         return f"Prediction({self.per_draw.shape[0]} draws, peak displacement median {d['q50']:.4g} m)"
 
 
+def _is_pair(motion) -> bool:
+    """Whether ``motion`` is a ``(t, ag)`` pair of 1-D sequences (a plain
+    ``ag`` of two samples is a pair of numbers, not of sequences)."""
+    return (
+        isinstance(motion, (tuple, list))
+        and len(motion) == 2
+        and all(_np.ndim(x) == 1 for x in motion)
+    )
+
+
+def _motion(ag, dt) -> tuple[_np.ndarray, float]:
+    """``(ag, dt)`` of a motion given as the ``(t, ag)`` of
+    :func:`ground_motion`/:func:`read_motion` or as ``ag`` and ``dt``."""
+    if not _is_pair(ag):
+        if dt is None:
+            raise TypeError(
+                "dt: missing: give the motion as the (t, ag) that hbis.ground_motion and "
+                "hbis.read_motion return, or as ag and its step dt"
+            )
+        return ag, float(dt)
+    t = _np.asarray(ag[0], dtype=float)
+    a = _np.asarray(ag[1], dtype=float)
+    if len(t) != len(a):
+        raise ValueError(f"ag: a (t, ag) motion needs one t per sample, got {len(t)} times for {len(a)} samples")
+    if len(t) < 2:
+        raise ValueError(f"ag: a (t, ag) motion needs at least 2 samples for its step, got {len(t)}")
+    step = float(t[1] - t[0])
+    if not step > 0.0 or not _np.isfinite(step):
+        raise ValueError(f"ag: t must increase: t[0] = {float(t[0])!r} s, t[1] = {float(t[1])!r} s")
+    # The tolerance of the library's two-column motion reader.
+    expected = t[0] + _np.arange(len(t)) * step
+    tol = 1e-6 * _np.maximum(step, _np.abs(expected) * 1e-3) + 1e-9
+    off = ~(_np.abs(t - expected) <= tol)
+    if off.any():
+        k = int(_np.argmax(off))
+        raise ValueError(
+            f"ag: t[{k}] = {float(t[k])!r} s, expected {float(expected[k])!r} s ({k} steps of {step!r} s after t[0]; "
+            "a motion must be uniformly sampled)"
+        )
+    if isinstance(dt, str):
+        raise TypeError(f"dt: got the string {dt!r}; after a (t, ag) motion give model by keyword (model={dt!r})")
+    if dt is not None and not abs(float(dt) - step) <= 1e-9 * step:
+        raise ValueError(f"dt: {dt!r} s, but the step of the (t, ag) motion is {step!r} s; give dt only with ag alone")
+    return a, step
+
+
 def _predict(model, thetas, ag, dt, tail, capacity, masses, effects=(), mass=None) -> Prediction:
-    rows = [list(map(float, t)) for t in np.atleast_2d(np.asarray(thetas, dtype=float))]
-    ag = np.ascontiguousarray(ag, dtype=float)
+    rows = [list(map(float, t)) for t in _np.atleast_2d(_np.asarray(thetas, dtype=float))]
+    ag = _np.ascontiguousarray(ag, dtype=float)
     per_draw, text = _hbis.predict(
         model,
         rows,
@@ -469,23 +587,27 @@ def _predict(model, thetas, ag, dt, tail, capacity, masses, effects=(), mass=Non
         effects=_effects(effects),
         mass=None if mass is None else float(mass),
     )
-    return Prediction(per_draw, json.loads(text))
+    return Prediction(per_draw, _json.loads(text))
 
 
 def predict(
-    params: Dict[str, float],
-    ag: Sequence[float],
-    dt: float,
+    params: dict[str, float],
+    ag: _t.Union[_t.Sequence[float], tuple[_t.Sequence[float], _t.Sequence[float]]],
+    dt: _t.Optional[float] = None,
     model: str = DEFAULT_MODEL,
     tail: float = 20.0,
-    capacity: Optional[float] = None,
-    mass: Optional[float] = None,
+    capacity: _t.Optional[float] = None,
+    mass: _t.Optional[float] = None,
     *,
-    effects: Sequence[str] = (),
+    effects: _t.Sequence[str] = (),
 ) -> Prediction:
-    """One parameter set's response to a ground motion ``ag`` (m/s^2, step
-    ``dt``) from rest, ``tail`` seconds after it ends (``hbis predict --model
-    --params``). For a fitted posterior use :meth:`Fit.predict`.
+    """One parameter set's response to a ground motion from rest, ``tail``
+    seconds after it ends (``hbis predict --model --params``). For a fitted
+    posterior use :meth:`Fit.predict`.
+    The motion is the ``(t, ag)`` that :func:`ground_motion` and
+    :func:`read_motion` return (the step is taken from ``t``, which must be
+    uniform), or ``ag`` (m/s^2) and its step ``dt`` (s); give ``model`` by
+    keyword after a ``(t, ag)``.
     ``mass`` (t) adds the base shear in kN; it and ``capacity`` (m) must be
     finite and > 0, as ``--mass`` and ``--capacity``.
     ``effects``: effect files whose components ``model`` may name."""
@@ -496,23 +618,26 @@ def predict(
     missing = [n for n in names if n not in params]
     if missing:
         raise ValueError(f"params: {missing[0]!r} is missing (the parameters of {model}: {', '.join(names)})")
+    ag, dt = _motion(ag, dt)
     theta = [[float(params[n]) for n in names]]
     return _predict(model, theta, ag, dt, tail, capacity, None, effects, mass=mass)
 
 
 def ground_motion(
     seed: int = 1, pga: float = 0.3 * 9.80665, duration: float = 40.0, dt: float = 0.01
-) -> Tuple[np.ndarray, np.ndarray]:
-    """A synthetic Kanai-Tajimi motion (firm soil), seeded: ``(t, ag)`` in s, m/s^2."""
+) -> tuple[_np.ndarray, _np.ndarray]:
+    """A synthetic Kanai-Tajimi motion (firm soil), seeded: ``(t, ag)`` in s,
+    m/s^2, which :func:`predict` and :meth:`Fit.predict` take as it is."""
     ag = _hbis.kanai_tajimi(int(seed), float(pga), float(duration), float(dt))
-    return np.arange(len(ag)) * dt, ag
+    return _np.arange(len(ag)) * dt, ag
 
 
-def read_motion(path: str, units: Optional[str] = None) -> Tuple[np.ndarray, np.ndarray]:
+def read_motion(path: str, units: _t.Optional[str] = None) -> tuple[_np.ndarray, _np.ndarray]:
     """A PEER ``.AT2`` file (its unit from the header) or two columns ``t ag``
-    (``units`` = ``'g'``, ``'m/s2'`` or ``'mm/s2'`` required): ``(t, ag)`` in s, m/s^2."""
+    (``units`` = ``'g'``, ``'m/s2'`` or ``'mm/s2'`` required): ``(t, ag)`` in s,
+    m/s^2, which :func:`predict` and :meth:`Fit.predict` take as it is."""
     dt, ag = _hbis.read_motion(str(path), units)
-    return np.arange(len(ag)) * dt, ag
+    return _np.arange(len(ag)) * dt, ag
 
 
 __all__ = [

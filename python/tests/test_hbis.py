@@ -186,7 +186,7 @@ def test_progress_is_reported_and_the_gil_released(record):
 def test_map_only_fit_has_no_posterior(record):
     f = hbis.fit(record, MODEL, seed=1, map_only=True)
     assert f.posterior is None and f.converged is None
-    assert list(f.map) == sorted(hbis.param_names(MODEL))
+    assert list(f.map) == hbis.param_names(MODEL)  # in `names` order (issue 38), not alphabetical
     with pytest.raises(ValueError, match="MAP-only"):
         f.summary()
 
@@ -320,6 +320,124 @@ def test_predict_one_parameter_set_and_bad_input(tmp_path):
         hbis.predict({k: v for k, v in hbis.table_8_1(5).items() if k != "u3"}, ag, 0.01)
     with pytest.raises(ValueError, match="tail"):
         hbis.predict(hbis.table_8_1(5), ag, 0.01, tail=-1.0)
+
+
+def test_predict_takes_the_t_ag_that_ground_motion_and_read_motion_return(fitted, tmp_path):
+    # Issue 38: `fit.predict(hbis.ground_motion(...))` failed (`predict`
+    # wanted `ag, dt`). The (t, ag) pair gives the numbers of `ag, dt`, to
+    # the bit, and the old form keeps working.
+    p5 = hbis.table_8_1(5)
+    motion = hbis.ground_motion(seed=5, pga=2.0, duration=10.0)
+    t, ag = motion
+    old = fitted.predict(ag, 0.01, draws=40, tail=5.0, capacity=0.1)
+    new = fitted.predict(motion, draws=40, tail=5.0, capacity=0.1)
+    np.testing.assert_array_equal(new.per_draw, old.per_draw)
+    assert new.report == old.report
+    assert fitted.predict(motion, 0.01, 40, 5.0).report == fitted.predict(ag, 0.01, 40, 5.0).report
+    one = hbis.predict(p5, motion, tail=5.0)
+    assert one.report == hbis.predict(p5, ag, 0.01, tail=5.0).report
+    assert hbis.predict(p5, [list(t), list(ag)], model=MODEL, tail=5.0).report == one.report
+    # read_motion's (t, ag), from two columns at 50 Hz.
+    rows = "".join(f"{0.02 * i!r} {0.1 * float(np.sin(i / 7.0))!r}\n" for i in range(300))
+    (tmp_path / "gm.txt").write_text("t ag\n" + rows)
+    read = hbis.read_motion(str(tmp_path / "gm.txt"), units="g")
+    assert hbis.predict(p5, read, tail=2.0).report == hbis.predict(p5, read[1], 0.02, tail=2.0).report
+    # The step comes from t, which must be uniform; a dt that disagrees
+    # with it, a missing dt and a model given in dt's place are named.
+    bent = t.copy()
+    bent[7] = 0.075
+    with pytest.raises(ValueError, match=r"ag: t\[7\] = 0.075 s, expected 0.07 s .*uniformly sampled"):
+        fitted.predict((bent, ag), draws=10)
+    with pytest.raises(ValueError, match=r"ag: .*one t per sample, got 1000 times for 1001 samples"):
+        hbis.predict(p5, (t[:-1], ag))
+    with pytest.raises(ValueError, match=r"dt: 0.02 s, but the step of the \(t, ag\) motion is 0.01 s"):
+        hbis.predict(p5, motion, 0.02)
+    with pytest.raises(TypeError, match="dt: missing"):
+        fitted.predict(ag, draws=10)
+    with pytest.raises(TypeError, match="give model by keyword"):
+        hbis.predict(p5, motion, MODEL)
+
+
+def test_map_is_in_names_order(record):
+    # Issue 38: `fit.map` was alphabetical (fit.json's order).
+    fit = hbis.fit(record, MODEL, seed=4, map_only=True)
+    assert list(fit.map) == fit.names
+    assert list(fit.names) != sorted(fit.names)  # the test would not tell otherwise
+    assert fit.map == fit.report["map"]
+
+
+def test_the_namespace_is_the_public_api_only():
+    # Issue 38: `hbis` exported `np`, `json`, `Any`, `Dict`. No public
+    # submodule is allowed either: the compiled part is `hbis._hbis`.
+    public = sorted(n for n in dir(hbis) if not n.startswith("_"))
+    assert public == sorted(hbis.__all__)
+    names = {}
+    exec("from hbis import *", names)
+    names.pop("__builtins__")
+    assert sorted(names) == sorted(hbis.__all__)
+
+
+def _documented(cls):
+    """The names a class's docstring (or a base's) lists under Attributes."""
+    import re
+
+    names = set()
+    for c in cls.__mro__:
+        doc = c.__dict__.get("__doc__") or ""
+        if "Attributes" in doc:
+            for line in doc.split("Attributes", 1)[1].splitlines():
+                m = re.match(r"^\s*([\w, ]+) :", line)
+                if m:
+                    names.update(n.strip() for n in m.group(1).split(","))
+    return names
+
+
+def test_every_public_name_has_a_docstring(record):
+    # Issue 38: `Fit.identifiability` and `Fit.converged` had none. Every
+    # function, class, method and property of `__all__` has a docstring;
+    # every constant is described in the module's, and every public
+    # attribute of a class or of its instances in the class's Attributes.
+    import inspect
+
+    def doc(obj):
+        return (getattr(obj, "__doc__", None) or "").strip()
+
+    missing = []
+    assert doc(hbis)
+    for name in hbis.__all__:
+        obj = getattr(hbis, name)
+        if not (callable(obj) or inspect.isclass(obj)):
+            if f"``{name}``" not in hbis.__doc__:
+                missing.append(name)
+            continue
+        if not doc(obj):
+            missing.append(name)
+        if not inspect.isclass(obj):
+            continue
+        for member in dir(obj):
+            if member.startswith("_"):
+                continue
+            raw = inspect.getattr_static(obj, member)
+            if isinstance(raw, (classmethod, staticmethod)):
+                raw = raw.__func__
+            if isinstance(raw, property) or inspect.isfunction(raw):
+                if not doc(raw):
+                    missing.append(f"{name}.{member}")
+            elif member not in _documented(obj):
+                missing.append(f"{name}.{member}")
+    t, ag = hbis.ground_motion(seed=2, duration=5.0)
+    instances = [
+        record,
+        hbis.Record(record.t, record.a),
+        hbis.fit(record, MODEL, seed=4, map_only=True),
+        hbis.predict(hbis.table_8_1(5), ag, 0.01, tail=2.0),
+    ]
+    for obj in instances:
+        documented = _documented(type(obj))
+        for member in vars(obj):
+            if not member.startswith("_") and member not in documented:
+                missing.append(f"{type(obj).__name__}().{member}")
+    assert not missing, f"undocumented: {missing}"
 
 
 EFFECT = ROOT / "examples" / "effects" / "maxwell.toml"
