@@ -68,6 +68,11 @@ pub enum BatchError {
     Shard(String),
 }
 
+/// Most items (records x models x seeds) a study may hold: each is a fit
+/// of seconds to minutes, so 100,000 is weeks of work; a manifest of a few
+/// lines listing more is a mistake, refused before anything is planned.
+pub const MAX_ITEMS: usize = 100_000;
+
 fn key_err(key: impl Into<String>, problem: impl Into<String>) -> BatchError {
     BatchError::Key {
         key: key.into(),
@@ -493,6 +498,18 @@ impl Study {
                 ));
             }
         }
+        let items = records.len() as u128 * models.len() as u128 * seeds.len() as u128;
+        if items > MAX_ITEMS as u128 {
+            return Err(key_err(
+                "seeds",
+                format!(
+                    "{} records x {} models x {} seeds make {items} items, more than the {MAX_ITEMS} a study may hold: split it into several manifests",
+                    records.len(),
+                    models.len(),
+                    seeds.len()
+                ),
+            ));
+        }
         Ok(Study {
             records,
             models,
@@ -780,6 +797,26 @@ mod tests {
         // The same file with other options is another item.
         study("models = [\"a\"]\n[[record]]\npath = \"x\"\n[[record]]\npath = \"x\"\nname = \"y\"\nt0 = 0.5\n")
             .unwrap();
+    }
+
+    /// A few lines can list millions of items (found by the
+    /// `batch_manifest` fuzz target): refused before any planning.
+    #[test]
+    fn a_study_of_more_than_max_items_is_refused() {
+        let seeds: Vec<String> = (0..1001).map(|s| s.to_string()).collect();
+        let models: Vec<String> = (0..100).map(|m| format!("\"m{m}\"")).collect();
+        let text = format!(
+            "models = [{}]\nseeds = [{}]\n[[record]]\npath = \"x\"\n",
+            models.join(", "),
+            seeds.join(", ")
+        );
+        let e = study(&text).unwrap_err().to_string();
+        assert!(
+            e.contains("1 records x 100 models x 1001 seeds make 100100 items"),
+            "{e}"
+        );
+        let fewer = text.replace(", 1000]", "]");
+        assert_eq!(study(&fewer).unwrap().items().len(), MAX_ITEMS);
     }
 
     #[test]
