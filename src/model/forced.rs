@@ -69,6 +69,10 @@ pub struct Excitation<'a> {
     n: usize,
 }
 
+/// Most integration steps per motion sample: a stiffness that needs more
+/// is an error of units, not a system (f0 = 1 kHz at 100 Hz needs 32).
+const MAX_SPLIT: f64 = 1e5;
+
 /// Most samples of a forced response (motion and tail), as many as a
 /// ground motion may have ([`crate::data::ground_motion::MAX_SAMPLES`]).
 pub const MAX_FORCED_SAMPLES: usize = 2_000_000;
@@ -283,7 +287,7 @@ impl System {
         opts: &SimOptions,
         sink: &mut S,
     ) -> Result<Peaks, SimError> {
-        Forced::new(self, ex.dt()).run(ex, opts, sink)
+        Forced::new(self, ex.dt())?.run(ex, opts, sink)
     }
 }
 
@@ -300,12 +304,22 @@ struct Forced<'a> {
 }
 
 impl<'a> Forced<'a> {
-    fn new(system: &'a System, dt: f64) -> Self {
+    fn new(system: &'a System, dt: f64) -> Result<Self, SimError> {
         let sp = system.spring();
         let fr = *system.friction();
         let k_max = sp.k0() + fr.slope().abs() * (1.0 + fr.asymmetry());
-        let split = ((dt * k_max.max(0.0).sqrt() / 2.0).ceil() as usize).max(1);
-        Self {
+        // In floating point first: a cast of an absurd stiffness would
+        // saturate and the run never end.
+        let split = (dt * k_max.max(0.0).sqrt() / 2.0).ceil().max(1.0);
+        if split > MAX_SPLIT {
+            return Err(SimError::Grid {
+                name: "largest stiffness (2 pi f)^2, as f",
+                value: k_max.sqrt() / std::f64::consts::TAU,
+                requirement: "needs more than 100,000 steps per motion sample: check the parameters' units (f0 in Hz)",
+            });
+        }
+        let split = split as usize;
+        Ok(Self {
             sp,
             fr: Floored::new(fr),
             alpha: 0.5 * system.damper_rate(),
@@ -313,7 +327,7 @@ impl<'a> Forced<'a> {
             h: dt / split as f64,
             events: 0,
             peaks: Peaks::new(),
-        }
+        })
     }
 
     fn run<S: ForcedSink>(

@@ -199,6 +199,7 @@ fn bad_predict_input_exits_2_naming_what_is_wrong() {
     write(d.path(), "extra.json", &TEST5.replace("\"u3\"", "\"u4\""));
     write(d.path(), "twice.json", &TEST5.replace("\"uy\"", "\"u0\""));
     write(d.path(), "zero.json", &TEST5.replace("0.1166", "0"));
+    write(d.path(), "stiff.json", &TEST5.replace("0.53979", "1e100"));
     let good = at2();
     write(
         d.path(),
@@ -250,6 +251,12 @@ fn bad_predict_input_exits_2_naming_what_is_wrong() {
         (
             vec!["zero.json", "--synthetic"],
             "`u0` = 0: must be nonzero",
+        ),
+        // A stiffness in the wrong unit: the step count per sample would
+        // saturate a cast and the run never end.
+        (
+            vec!["stiff.json", "--synthetic"],
+            "needs more than 100,000 steps per motion sample",
         ),
     ];
     for (rest, needle) in cases {
