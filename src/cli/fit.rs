@@ -204,7 +204,7 @@ pub fn run(a: Args) -> Result<()> {
     writeln!(err, "{}", release_line(&data))?;
     writeln!(
         err,
-        "finding the MAP (CMA-ES with restarts, at most {} evaluations){}...",
+        "finding the MAP (CMA-ES with restarts, at most {} evaluations per search, plus the release placement and the polish; a structured residual starts a second search){}...",
         a.max_evals,
         if a.map_only {
             ""
@@ -317,9 +317,12 @@ pub fn run_fit(
 pub fn print_map(out: &mut impl Write, map: &MapEstimate) -> Result<()> {
     writeln!(
         out,
-        "MAP after {} evaluations ({} CMA-ES runs) in {:.2} s: e2 = {:.6}, log-posterior = {:.3}",
+        "MAP after {} evaluations ({} in {} CMA-ES runs, {} placing the release, {} polishing) in {:.2} s: e2 = {:.6}, log-posterior = {:.3}",
         map.evaluations(),
+        map.cmaes_evaluations,
         map.runs.len(),
+        map.preparation_evaluations,
+        map.polish.as_ref().map_or(0, |p| p.evaluations),
         map.wall_time,
         map.eval.e2,
         map.eval.log_posterior
