@@ -353,6 +353,17 @@ pub fn fit_figure(
         phases,
     } = *overlays;
     let shade = phases.map_or_else(Vec::new, |p| phase_spans(t, p));
+    let size = (1600, 1000);
+    // An SVG (for report.html) keeps each curve's lowest and highest value
+    // in each pixel column: peaks survive, the file stays small however
+    // long the record. A PNG draws every sample.
+    let shown = |points: Vec<(f64, f64)>| {
+        if ext == "svg" {
+            decimate(&points, size.0 as usize)
+        } else {
+            points
+        }
+    };
     let residual: Vec<(f64, f64)> = t
         .iter()
         .zip(measured.iter().zip(model))
@@ -362,7 +373,7 @@ pub fn fit_figure(
     if let Some((lo, hi)) = band {
         for (edge, label) in [(lo, "90 % predictive band"), (hi, "")] {
             top.push(Curve {
-                points: t.iter().copied().zip(edge.iter().copied()).collect(),
+                points: shown(t.iter().copied().zip(edge.iter().copied()).collect()),
                 colour: RGBColor(120, 170, 220),
                 label: label.into(),
             });
@@ -370,12 +381,12 @@ pub fn fit_figure(
     }
     top.extend([
         Curve {
-            points: t.iter().copied().zip(measured.iter().copied()).collect(),
+            points: shown(t.iter().copied().zip(measured.iter().copied()).collect()),
             colour: RGBColor(90, 90, 90),
             label: "measured".into(),
         },
         Curve {
-            points: t.iter().copied().zip(model.iter().copied()).collect(),
+            points: shown(t.iter().copied().zip(model.iter().copied()).collect()),
             colour: RGBColor(214, 39, 40),
             label: "model (MAP)".into(),
         },
@@ -396,7 +407,7 @@ pub fn fit_figure(
         }
     }
     bottom.push(Curve {
-        points: residual,
+        points: shown(residual),
         colour: RGBColor(44, 44, 160),
         label: String::new(),
     });
@@ -409,8 +420,60 @@ pub fn fit_figure(
             });
         }
     }
-    let size = (1600, 1000);
     render!(path, &ext, size, draw_fit(title, &top, &bottom, &shade))
+}
+
+/// A curve for display: of the points (in increasing x) that fall in each
+/// of `columns` equal columns of the x range, only the lowest and the
+/// highest, in their order. Drawn one column to a pixel, the line looks the
+/// same as with every point, peaks included; a curve of at most two points
+/// per column is returned whole.
+///
+/// ```
+/// use hbis::report::figures::decimate;
+///
+/// let wave: Vec<(f64, f64)> = (0..20_000)
+///     .map(|i| (i as f64 * 0.005, (i as f64 * 0.01).sin() * (i % 997 == 0) as u8 as f64))
+///     .collect();
+/// let shown = decimate(&wave, 800);
+/// assert!(shown.len() <= 1600);
+/// let peak = |p: &[(f64, f64)]| p.iter().map(|q| q.1).fold(f64::MIN, f64::max);
+/// assert_eq!(peak(&shown), peak(&wave));
+/// assert_eq!(decimate(&wave[..1000], 800), wave[..1000].to_vec());
+/// ```
+pub fn decimate(points: &[(f64, f64)], columns: usize) -> Vec<(f64, f64)> {
+    let columns = columns.max(1);
+    if points.len() <= 2 * columns {
+        return points.to_vec();
+    }
+    let (x0, x1) = (points[0].0, points[points.len() - 1].0);
+    let width = (x1 - x0) / columns as f64;
+    if width.is_nan() || width <= 0.0 {
+        return points.to_vec();
+    }
+    let column = |x: f64| (((x - x0) / width).max(0.0) as usize).min(columns - 1);
+    let mut out = Vec::with_capacity(2 * columns);
+    let mut start = 0;
+    while start < points.len() {
+        let c = column(points[start].0);
+        let mut end = start;
+        let (mut lo, mut hi) = (start, start);
+        while end < points.len() && column(points[end].0) == c {
+            if points[end].1 < points[lo].1 {
+                lo = end;
+            }
+            if points[end].1 > points[hi].1 {
+                hi = end;
+            }
+            end += 1;
+        }
+        out.push(points[lo.min(hi)]);
+        if lo != hi {
+            out.push(points[lo.max(hi)]);
+        }
+        start = end;
+    }
+    out
 }
 
 /// Runs of one phase along `t` as shaded spans, coloured as panel (b) of
@@ -509,6 +572,14 @@ fn short(x: f64) -> String {
     }
 }
 
+/// The corner plot's layout, in pixels of a cell: every cell keeps the
+/// same margins, so that columns and rows line up; the diagonal cells'
+/// titles sit in the top margin, above the histogram and its marks; the
+/// axis titles sit outside the tick labels.
+const CORNER_TITLE: u32 = 40;
+const CORNER_X_AREA: u32 = 52;
+const CORNER_Y_AREA: u32 = 78;
+
 fn draw_corner<DB: DrawingBackend>(
     root: DrawingArea<DB, Shift>,
     names: &[String],
@@ -532,7 +603,10 @@ fn draw_corner<DB: DrawingBackend>(
             if j > i {
                 continue;
             }
-            let x_label = if i == d - 1 { names[j].as_str() } else { "" };
+            let bottom = i == d - 1;
+            // Inner cells keep a thin label area: it draws their frame.
+            let x_area = if bottom { CORNER_X_AREA } else { 5 };
+            let y_area = if j == 0 { CORNER_Y_AREA } else { 5 };
             if i == j {
                 let bins = 30usize;
                 let r = &ranges[i];
@@ -542,26 +616,25 @@ fn draw_corner<DB: DrawingBackend>(
                     let b = (((p[i] - r.start) / w) as usize).min(bins - 1);
                     counts[b] += 1;
                 }
-                // Head room for the cell's title.
-                let top = counts.iter().copied().max().unwrap_or(1) as f64 * 1.4;
+                let top = counts.iter().copied().max().unwrap_or(1).max(1) as f64 * 1.05;
                 let mut chart = ChartBuilder::on(area)
                     .margin(4)
-                    .x_label_area_size(if i == d - 1 { 30 } else { 5 })
-                    .y_label_area_size(5)
+                    .margin_top(CORNER_TITLE)
+                    .x_label_area_size(x_area)
+                    .y_label_area_size(y_area)
                     .build_cartesian_2d(r.clone(), 0.0..top)
                     .map_err(e)?;
-                chart
-                    .configure_mesh()
-                    .disable_mesh()
+                let mut mesh = chart.configure_mesh();
+                mesh.disable_mesh()
                     .x_label_formatter(&tick)
-                    .y_label_formatter(&tick)
-                    .x_desc(x_label)
-                    .x_labels(3)
+                    .x_labels(if bottom { 3 } else { 0 })
                     .y_labels(0)
-                    .label_style((FONT, 11))
-                    .axis_desc_style((FONT, 14))
-                    .draw()
-                    .map_err(e)?;
+                    .label_style((FONT, 12))
+                    .axis_desc_style((FONT, 15));
+                if bottom {
+                    mesh.x_desc(names[j].as_str());
+                }
+                mesh.draw().map_err(e)?;
                 chart
                     .draw_series(counts.iter().enumerate().map(|(b, &c)| {
                         let x0 = r.start + b as f64 * w;
@@ -585,36 +658,41 @@ fn draw_corner<DB: DrawingBackend>(
                         .map_err(e)?;
                 }
                 // Name each diagonal cell, since inner cells carry no axis
-                // titles: the parameter, then its median and 90 % interval.
+                // titles: the parameter, then its median and 90 % interval,
+                // in the top margin over the plot.
                 let mut v: Vec<f64> = points.iter().map(|p| p[i]).collect();
                 v.sort_by(f64::total_cmp);
                 let q = |p: f64| crate::inference::summary::quantile(&v, p);
-                area.draw_text(&names[i], &(FONT, 14).into_text_style(area), (6, 2))
+                let x = if j == 0 { CORNER_Y_AREA as i32 } else { 6 };
+                area.draw_text(&names[i], &(FONT, 15).into_text_style(area), (x, 3))
                     .map_err(e)?;
                 let interval =
                     format!("{} [{}, {}]", short(q(0.5)), short(q(0.05)), short(q(0.95)));
-                area.draw_text(&interval, &(FONT, 12).into_text_style(area), (6, 19))
+                area.draw_text(&interval, &(FONT, 13).into_text_style(area), (x, 21))
                     .map_err(e)?;
             } else {
                 let mut chart = ChartBuilder::on(area)
                     .margin(4)
-                    .x_label_area_size(if i == d - 1 { 30 } else { 5 })
-                    .y_label_area_size(if j == 0 { 45 } else { 5 })
+                    .margin_top(CORNER_TITLE)
+                    .x_label_area_size(x_area)
+                    .y_label_area_size(y_area)
                     .build_cartesian_2d(ranges[j].clone(), ranges[i].clone())
                     .map_err(e)?;
-                chart
-                    .configure_mesh()
-                    .disable_mesh()
+                let mut mesh = chart.configure_mesh();
+                mesh.disable_mesh()
                     .x_label_formatter(&tick)
                     .y_label_formatter(&tick)
-                    .x_desc(x_label)
-                    .y_desc(if j == 0 { names[i].as_str() } else { "" })
-                    .x_labels(3)
+                    .x_labels(if bottom { 3 } else { 0 })
                     .y_labels(if j == 0 { 3 } else { 0 })
-                    .label_style((FONT, 11))
-                    .axis_desc_style((FONT, 14))
-                    .draw()
-                    .map_err(e)?;
+                    .label_style((FONT, 12))
+                    .axis_desc_style((FONT, 15));
+                if bottom {
+                    mesh.x_desc(names[j].as_str());
+                }
+                if j == 0 {
+                    mesh.y_desc(names[i].as_str());
+                }
+                mesh.draw().map_err(e)?;
                 chart
                     .draw_series(
                         points
@@ -644,8 +722,10 @@ fn draw_corner<DB: DrawingBackend>(
 
 /// Trace plots: each parameter against the step for some walkers of every
 /// ensemble, one colour per ensemble, with the end of burn-in marked.
-/// `traces[k][w]` is series `w` of parameter `k`, from ensemble
-/// `ensemble[w]`.
+/// `traces[k][w]` is series `w` of parameter `k` (one value per step),
+/// from ensemble `ensemble[w]`; `names` label the y axes (name and unit,
+/// e.g. `u0 (m)`). An SVG (for report.html) keeps each series' lowest and
+/// highest value in each of 200 columns of steps; a PNG draws every step.
 pub fn trace_figure(
     path: &Path,
     names: &[String],
@@ -656,18 +736,35 @@ pub fn trace_figure(
 ) -> Result<(), FigureError> {
     let ext = checked_extension(path)?;
     let size = (1400, (180 * names.len() as u32).max(500));
+    let series: Vec<Vec<Vec<(f64, f64)>>> = traces
+        .iter()
+        .map(|walkers| {
+            walkers
+                .iter()
+                .map(|t| {
+                    let points: Vec<(f64, f64)> =
+                        t.iter().enumerate().map(|(s, v)| (s as f64, *v)).collect();
+                    if ext == "svg" {
+                        decimate(&points, 200)
+                    } else {
+                        points
+                    }
+                })
+                .collect()
+        })
+        .collect();
     render!(
         path,
         &ext,
         size,
-        draw_traces(names, traces, ensemble, burn, title)
+        draw_traces(names, &series, ensemble, burn, title)
     )
 }
 
 fn draw_traces<DB: DrawingBackend>(
     root: DrawingArea<DB, Shift>,
     names: &[String],
-    traces: &[Vec<Vec<f64>>],
+    traces: &[Vec<Vec<(f64, f64)>>],
     ensemble: &[usize],
     burn: usize,
     title: &str,
@@ -677,34 +774,35 @@ fn draw_traces<DB: DrawingBackend>(
     let root = root.titled(title, (FONT, 24)).map_err(e)?;
     let rows = root.split_evenly((names.len(), 1));
     for (k, area) in rows.iter().enumerate() {
-        let steps = traces[k].first().map_or(0, Vec::len);
-        let yr = range(traces[k].iter().flat_map(|t| t.iter().copied()));
+        let last = k == names.len() - 1;
+        let steps = traces[k]
+            .iter()
+            .filter_map(|t| t.last().map(|p| p.0 + 1.0))
+            .fold(1.0, f64::max);
+        let yr = range(traces[k].iter().flat_map(|t| t.iter().map(|p| p.1)));
         let mut chart = ChartBuilder::on(area)
             .margin(4)
-            .x_label_area_size(if k == names.len() - 1 { 30 } else { 5 })
-            .y_label_area_size(80)
-            .build_cartesian_2d(0.0..steps.max(1) as f64, yr.clone())
+            .x_label_area_size(if last { 45 } else { 5 })
+            .y_label_area_size(95)
+            .build_cartesian_2d(0.0..steps, yr.clone())
             .map_err(e)?;
-        chart
-            .configure_mesh()
-            .disable_mesh()
-            .x_label_formatter(&tick)
+        let mut mesh = chart.configure_mesh();
+        mesh.disable_mesh()
+            .x_label_formatter(&|x| format!("{x:.0}"))
             .y_label_formatter(&tick)
             .y_desc(names[k].as_str())
-            .x_desc(if k == names.len() - 1 { "step" } else { "" })
-            .x_labels(if k == names.len() - 1 { 8 } else { 0 })
+            .x_labels(if last { 8 } else { 0 })
             .y_labels(3)
             .label_style((FONT, 12))
-            .axis_desc_style((FONT, 15))
-            .draw()
-            .map_err(e)?;
+            .axis_desc_style((FONT, 15));
+        if last {
+            mesh.x_desc("step of the sampler");
+        }
+        mesh.draw().map_err(e)?;
         for (w, t) in traces[k].iter().enumerate() {
             let colour = Palette99::pick(ensemble.get(w).copied().unwrap_or(0)).mix(0.6);
             chart
-                .draw_series(LineSeries::new(
-                    t.iter().enumerate().map(|(s, v)| (s as f64, *v)),
-                    colour,
-                ))
+                .draw_series(LineSeries::new(t.iter().copied(), colour))
                 .map_err(e)?;
         }
         chart
@@ -1007,7 +1105,82 @@ pub fn svg_text(
         })
     });
     let _ = std::fs::remove_file(&path);
-    result
+    result.map(|svg| compact_svg(&svg))
+}
+
+/// The same drawing in fewer bytes: each run of circles that differ only
+/// in their centre and radius (a scatter plot's dots, one line each as
+/// plotters writes them) becomes one group that carries their style once.
+/// A circle that paints only its fill (or only its stroke) looks the same
+/// with its `opacity` given as the group's `fill-opacity` (or
+/// `stroke-opacity`), which, unlike `opacity`, each circle inherits.
+///
+/// ```
+/// use hbis::report::figures::compact_svg;
+///
+/// let dot = |x: u32| format!("<circle cx=\"{x}\" cy=\"5\" r=\"1\" opacity=\"0.3\" fill=\"#1F77B4\" stroke=\"none\" stroke-width=\"1\"/>\n");
+/// let svg = format!("<svg>\n{}{}</svg>\n", dot(1), dot(2));
+/// assert_eq!(
+///     compact_svg(&svg),
+///     "<svg>\n<g fill=\"#1F77B4\" fill-opacity=\"0.3\" stroke=\"none\">\n<circle cx=\"1\" cy=\"5\" r=\"1\"/>\n<circle cx=\"2\" cy=\"5\" r=\"1\"/>\n</g>\n</svg>\n"
+/// );
+/// ```
+pub fn compact_svg(svg: &str) -> String {
+    // (cx, cy, r) and the group's attributes, for a circle that can join one.
+    fn dot(line: &str) -> Option<((&str, &str, &str), String)> {
+        let inner = line.strip_prefix("<circle ")?.strip_suffix("/>")?;
+        let mut attrs = std::collections::BTreeMap::new();
+        for pair in inner.split_terminator("\" ") {
+            let (key, value) = pair.split_once("=\"")?;
+            attrs.insert(key.trim(), value.trim_end_matches('"'));
+        }
+        let get = |k: &str| attrs.get(k).copied();
+        let (cx, cy, r) = (get("cx")?, get("cy")?, get("r")?);
+        let (opacity, fill, stroke) = (get("opacity")?, get("fill")?, get("stroke")?);
+        if attrs.len() != 7 {
+            return None;
+        }
+        let group = match (fill, stroke) {
+            ("none", "none") => return None,
+            (f, "none") => format!("fill=\"{f}\" fill-opacity=\"{opacity}\" stroke=\"none\""),
+            ("none", s) => format!(
+                "fill=\"none\" stroke=\"{s}\" stroke-opacity=\"{opacity}\" stroke-width=\"{}\"",
+                get("stroke-width")?
+            ),
+            _ => return None,
+        };
+        Some(((cx, cy, r), group))
+    }
+    let mut out = String::with_capacity(svg.len());
+    let mut open: Option<String> = None;
+    let lines: Vec<&str> = svg.split_inclusive('\n').collect();
+    for (k, line) in lines.iter().enumerate() {
+        let this = dot(line.trim_end());
+        let joins = |g: &String| this.as_ref().is_some_and(|(_, h)| h == g);
+        if open.as_ref().is_some_and(|g| !joins(g)) {
+            out.push_str("</g>\n");
+            open = None;
+        }
+        match this {
+            Some(((cx, cy, r), group)) => {
+                let next = lines.get(k + 1).and_then(|l| dot(l.trim_end()));
+                if open.is_none() && next.is_some_and(|(_, h)| h == group) {
+                    out.push_str(&format!("<g {group}>\n"));
+                    open = Some(group);
+                }
+                if open.is_some() {
+                    out.push_str(&format!("<circle cx=\"{cx}\" cy=\"{cy}\" r=\"{r}\"/>\n"));
+                } else {
+                    out.push_str(line);
+                }
+            }
+            None => out.push_str(line),
+        }
+    }
+    if open.is_some() {
+        out.push_str("</g>\n");
+    }
+    out
 }
 
 /// The lowercase extension (`png` or `svg`), with the font registered.
@@ -1299,4 +1472,165 @@ fn draw_peaks<DB: DrawingBackend>(
         legend(&mut chart)?;
     }
     root.present().map_err(e)
+}
+
+#[cfg(test)]
+mod layout_tests {
+    use super::*;
+
+    /// A text's box in the SVG, from its anchor, size and rotation, taking
+    /// a glyph as 0.6 em wide (DejaVu Sans' digits are 0.64, its lowercase
+    /// letters 0.5 to 0.65).
+    fn text_boxes(svg: &str) -> Vec<(String, [f64; 4])> {
+        let attr = |tag: &str, k: &str| -> Option<String> {
+            let start = tag.find(&format!(" {k}=\""))? + k.len() + 3;
+            Some(tag[start..].split('"').next()?.to_string())
+        };
+        let mut out = Vec::new();
+        for chunk in svg.split("<text ").skip(1) {
+            let (tag, rest) = chunk.split_once('>').unwrap();
+            let tag = &format!(" {tag}");
+            let text = rest.split("</text>").next().unwrap().trim().to_string();
+            if text.is_empty() {
+                continue;
+            }
+            let num = |k: &str| attr(tag, k).unwrap().parse::<f64>().unwrap();
+            let (x, y, f) = (num("x"), num("y"), num("font-size"));
+            let w = 0.6 * f * text.chars().count() as f64;
+            let (x0, x1) = match attr(tag, "text-anchor").as_deref() {
+                Some("middle") => (x - w / 2.0, x + w / 2.0),
+                Some("end") => (x - w, x),
+                _ => (x, x + w),
+            };
+            let (y0, y1) = match attr(tag, "dy").as_deref() {
+                Some("0.76em") => (y, y + f),
+                Some("0.5ex") => (y - f / 2.0, y + f / 2.0),
+                Some("-0.5ex") => (y - f, y),
+                _ => (y - 0.8 * f, y + 0.2 * f),
+            };
+            let b = match attr(tag, "transform") {
+                // rotate(270, x, y): (dx, dy) about (x, y) goes to (dy, -dx).
+                Some(t) if t.starts_with("rotate(270") => {
+                    [x + (y0 - y), y - (x1 - x), x + (y1 - y), y - (x0 - x)]
+                }
+                Some(t) => panic!("a text turned by {t}"),
+                None => [x0, y0, x1, y1],
+            };
+            out.push((text, b));
+        }
+        out
+    }
+
+    /// The segments of polylines of `stroke` with `stroke-width` 2.
+    fn thick_lines(svg: &str, stroke: &str) -> Vec<[f64; 4]> {
+        let mut out = Vec::new();
+        for chunk in svg.split("<polyline ").skip(1) {
+            let tag = chunk.split("/>").next().unwrap();
+            if !tag.contains(&format!("stroke=\"{stroke}\" stroke-width=\"2\"")) {
+                continue;
+            }
+            let pts: Vec<(f64, f64)> = tag
+                .split("points=\"")
+                .nth(1)
+                .unwrap()
+                .split('"')
+                .next()
+                .unwrap()
+                .split_whitespace()
+                .map(|p| {
+                    let (x, y) = p.split_once(',').unwrap();
+                    (x.parse().unwrap(), y.parse().unwrap())
+                })
+                .collect();
+            for w in pts.windows(2) {
+                out.push([
+                    w[0].0.min(w[1].0),
+                    w[0].1.min(w[1].1),
+                    w[0].0.max(w[1].0),
+                    w[0].1.max(w[1].1),
+                ]);
+            }
+        }
+        out
+    }
+
+    fn overlap(a: &[f64; 4], b: &[f64; 4]) -> bool {
+        a[0] < b[2] - 0.5 && b[0] < a[2] - 0.5 && a[1] < b[3] - 0.5 && b[1] < a[3] - 0.5
+    }
+
+    /// The corner plot's titles, tick labels and axis titles do not overlap
+    /// one another, and the MAP (red) and truth (black) lines of the
+    /// histograms stay clear of the titles.
+    #[test]
+    fn the_corner_plot_has_no_overlaps() {
+        let names: Vec<String> = ["u0 (m)", "uF0 (m)", "zeta0 (-)", "f0 (Hz)"]
+            .iter()
+            .map(|s| s.to_string())
+            .collect();
+        let centre = [0.1076, 0.001768, 0.02877, 0.5644];
+        let spread = [3e-4, 2e-5, 8e-4, 1e-3];
+        let points: Vec<Vec<f64>> = (0..400)
+            .map(|i| {
+                (0..4)
+                    .map(|k| {
+                        let z = ((i * (k + 3)) as f64 * 0.7137).sin()
+                            + ((i * 7 + k) as f64 * 1.31).cos();
+                        centre[k] + spread[k] * z
+                    })
+                    .collect()
+            })
+            .collect();
+        // The marks at the histograms' peaks, where the titles would be.
+        let svg = svg_text(|p| {
+            corner_figure(
+                p,
+                &names,
+                &points,
+                Some(&centre),
+                Some(&[0.1077, 0.00177, 0.0289, 0.5646]),
+                "model: posterior (red: MAP, black: truth)",
+            )
+        })
+        .unwrap();
+        let texts = text_boxes(&svg);
+        assert!(texts.iter().any(|(t, _)| t == "f0 (Hz)"), "{texts:?}");
+        for (i, (a, ba)) in texts.iter().enumerate() {
+            for (b, bb) in &texts[i + 1..] {
+                assert!(!overlap(ba, bb), "`{a}` {ba:?} overlaps `{b}` {bb:?}");
+            }
+        }
+        let lines: Vec<[f64; 4]> = ["#FF0000", "#000000"]
+            .iter()
+            .flat_map(|c| thick_lines(&svg, c))
+            .collect();
+        assert_eq!(lines.len(), 8, "a MAP and a truth line per histogram");
+        for l in &lines {
+            for (t, b) in &texts {
+                assert!(!overlap(l, b), "a mark {l:?} crosses `{t}` {b:?}");
+            }
+        }
+    }
+
+    /// The fit figure's SVG keeps two points per pixel column: a long
+    /// record's stays small, with its peak.
+    #[test]
+    fn the_fit_svg_of_a_long_record_is_decimated_with_its_peaks() {
+        let n = 40_000;
+        let t: Vec<f64> = (0..n).map(|i| i as f64 * 0.005).collect();
+        let a: Vec<f64> = t
+            .iter()
+            .enumerate()
+            .map(|(i, t)| (3.0 * t).sin() + if i == 12_345 { 7.5 } else { 0.0 })
+            .collect();
+        let model: Vec<f64> = t.iter().map(|t| (3.0 * t).sin()).collect();
+        let svg =
+            svg_text(|p| fit_figure(p, &t, &a, &model, &Overlays::default(), "long")).unwrap();
+        assert!(svg.len() < 250_000, "{} bytes", svg.len());
+        let points: usize = svg
+            .split("points=\"")
+            .skip(1)
+            .map(|p| p.split('"').next().unwrap().split_whitespace().count())
+            .sum();
+        assert!(points < 3 * 2 * 1600 + 100, "{points} points");
+    }
 }

@@ -61,14 +61,23 @@ impl Section {
         self
     }
 
-    /// A table with a header row; numbers are best given already formatted.
+    /// A table with a header row (none if every title is empty, as for a
+    /// two-column list of what and value); numbers are best given already
+    /// formatted. A row of empty cells is left out.
     pub fn table(&mut self, header: &[&str], rows: Vec<Vec<String>>) -> &mut Self {
-        self.body.push_str("<table>\n<thead><tr>");
-        for h in header {
-            let _ = write!(self.body, "<th>{}</th>", escape(h));
+        self.body.push_str("<table>\n");
+        if header.iter().any(|h| !h.trim().is_empty()) {
+            self.body.push_str("<thead><tr>");
+            for h in header {
+                let _ = write!(self.body, "<th>{}</th>", escape(h));
+            }
+            self.body.push_str("</tr></thead>\n");
         }
-        self.body.push_str("</tr></thead>\n<tbody>\n");
-        for r in rows {
+        self.body.push_str("<tbody>\n");
+        for r in rows
+            .into_iter()
+            .filter(|r| r.iter().any(|c| !c.trim().is_empty()))
+        {
             self.body.push_str("<tr>");
             for c in r {
                 // Numbers line up on the right, words read from the left.
@@ -184,11 +193,13 @@ pub fn num(x: f64) -> String {
 }
 
 /// The page of a fit: what was fitted, the MAP, the posterior with its
-/// diagnostics, the identifiability report and design table, eq. 8.1's
-/// quantities, the warnings and the `figures` (SVG, caption).
+/// diagnostics (each parameter with its unit, `units[k]` for `names[k]`),
+/// the identifiability report and design table, eq. 8.1's quantities, the
+/// warnings and the `figures` (SVG, caption).
 pub fn fit_page(
     r: &crate::report::json::FitReport,
     names: &[String],
+    units: &[String],
     figures: &[(String, String)],
 ) -> String {
     let mut about = Section::new("Record and model");
@@ -214,8 +225,14 @@ pub fn fit_page(
     let mut post = Section::new("Parameters");
     let rows = names
         .iter()
-        .map(|n| {
-            let mut row = vec![n.clone(), r.map.get(n).map_or(String::new(), |v| num(*v))];
+        .enumerate()
+        .map(|(k, n)| {
+            let unit = units.get(k).cloned().unwrap_or_else(|| "-".into());
+            let mut row = vec![
+                n.clone(),
+                unit,
+                r.map.get(n).map_or(String::new(), |v| num(*v)),
+            ];
             if let Some(p) = r.posterior.as_ref().and_then(|p| p.get(n)) {
                 row.extend([num(p.mean), num(p.sd), num(p.q05), num(p.q95)]);
                 if let Some(s) = &r.sampling {
@@ -230,6 +247,7 @@ pub fn fit_page(
         post.table(
             &[
                 "parameter",
+                "unit",
                 "MAP",
                 "mean",
                 "sd",
@@ -242,7 +260,7 @@ pub fn fit_page(
         );
     } else {
         post.paragraph("MAP only: no posterior was sampled.");
-        post.table(&["parameter", "MAP"], rows);
+        post.table(&["parameter", "unit", "MAP"], rows);
     }
     if let Some(s) = &r.sampling {
         post.paragraph(&format!(
@@ -495,5 +513,24 @@ mod tests {
         assert!(html.contains("<h2>A &amp; B</h2>"));
         assert!(html.contains("<figure><svg width=\"10\"></svg><figcaption>x &lt; y</figcaption>"));
         assert!(!html.contains("<?xml"));
+    }
+
+    #[test]
+    fn a_table_of_blank_titles_has_no_header_row_and_blank_rows_are_left_out() {
+        let mut s = Section::new("t");
+        s.table(
+            &["", ""],
+            vec![
+                vec!["record".into(), "r.csv".into()],
+                vec![String::new(), " ".into()],
+            ],
+        );
+        s.table(&["parameter", "unit"], vec![vec!["u0".into(), "m".into()]]);
+        let html = Page::new("t").section(s).render();
+        assert_eq!(html.matches("<thead>").count(), 1, "{html}");
+        assert!(!html.contains("<th></th>"), "{html}");
+        assert!(!html.contains("<tr><td></td>"), "{html}");
+        assert!(html.contains("<th>parameter</th><th>unit</th>"));
+        assert!(html.contains("<tr><td>record</td><td>r.csv</td></tr>"));
     }
 }

@@ -286,14 +286,12 @@ pub fn write_fit(
         if let Some(sample) = &fit.sample {
             let points = sample.points();
             // Each parameter with its unit, as its component declares it.
-            let specs = fit.posterior.model().params();
+            let units = units_of(fit.posterior.model(), &sample.names);
             let labels: Vec<String> = sample
                 .names
                 .iter()
-                .map(|n| match specs.iter().find(|p| &p.name == n) {
-                    Some(p) => format!("{n} ({})", p.unit),
-                    None => format!("{n} (-)"),
-                })
+                .zip(&units)
+                .map(|(n, u)| format!("{n} ({u})"))
                 .collect();
             let corner = |tmp: &Path, n: usize| {
                 let stride = (points.len() / n).max(1);
@@ -315,9 +313,14 @@ pub fn write_fit(
                 )
             };
             out.write_with("corner.png", |tmp| corner(tmp, 3000))?;
+            // The page's copy: some 12,000 dots over all the pairs, so that
+            // report.html stays small however many parameters.
+            let d = labels.len();
+            let shown = (12_000 / (d * d.saturating_sub(1) / 2).max(1)).clamp(100, 400);
+            let shown = shown.min(points.len());
             svgs.push((
-                figures::svg_text(|tmp| corner(tmp, 400))?,
-                "Posterior: marginal histograms and pairwise draws (400 of them here; corner.png has 3,000); red: the MAP.".into(),
+                figures::svg_text(|tmp| corner(tmp, shown))?,
+                format!("Posterior: marginal histograms and pairwise draws ({shown} of them here; corner.png has 3,000); red: the MAP."),
             ));
             // Three walkers of every ensemble, one colour per ensemble.
             let picks: Vec<(usize, usize)> = sample
@@ -331,46 +334,59 @@ pub fn write_fit(
                 .collect();
             let ensemble: Vec<usize> = picks.iter().map(|p| p.0).collect();
             let steps = sample.steps();
-            let traces = |every: usize| -> Vec<Vec<Vec<f64>>> {
-                (0..sample.names.len())
-                    .map(|k| {
-                        picks
-                            .iter()
-                            .map(|&(e, w)| {
-                                let c = &sample.chains[e];
-                                (0..steps).step_by(every).map(|s| c.get(s, w)[k]).collect()
-                            })
-                            .collect()
-                    })
-                    .collect()
-            };
-            let trace = |tmp: &Path, every: usize| {
+            let traces: Vec<Vec<Vec<f64>>> = (0..sample.names.len())
+                .map(|k| {
+                    picks
+                        .iter()
+                        .map(|&(e, w)| {
+                            let c = &sample.chains[e];
+                            (0..steps).map(|s| c.get(s, w)[k]).collect()
+                        })
+                        .collect()
+                })
+                .collect();
+            let trace = |tmp: &Path| {
                 figures::trace_figure(
                     tmp,
-                    &sample.names,
-                    &traces(every),
+                    &labels,
+                    &traces,
                     &ensemble,
-                    sample.burn / every,
+                    sample.burn,
                     &format!(
                         "{spec}: traces, 3 walkers of each of the {} ensembles (one colour each; black line: end of burn-in)",
                         sample.chains.len()
                     ),
                 )
             };
-            out.write_with("trace.png", |tmp| trace(tmp, 1))?;
-            let every = (steps / 400).max(1);
+            out.write_with("trace.png", trace)?;
             svgs.push((
-                figures::svg_text(|tmp| trace(tmp, every))?,
-                format!("Traces of three walkers of every ensemble, one colour per ensemble (every {every}-th step here); the black line ends the burn-in."),
+                figures::svg_text(trace)?,
+                "Traces of three walkers of every ensemble, one colour per ensemble (here each line keeps its lowest and highest value in each of 200 columns of steps; trace.png has every step); the black line ends the burn-in.".into(),
             ));
         }
     }
     let names = fit.names().to_vec();
+    let units = units_of(fit.posterior.model(), &names);
     out.write(
         "report.html",
-        crate::report::html::fit_page(&report, &names, &svgs).as_bytes(),
+        crate::report::html::fit_page(&report, &names, &units, &svgs).as_bytes(),
     )?;
     Ok(report)
+}
+
+/// The unit of each of `names`, as the model's components declare it;
+/// `-` for the noise model's own parameters (the AR(1) `rho`).
+pub fn units_of<M: ForwardModel>(model: &M, names: &[String]) -> Vec<String> {
+    let specs = model.params();
+    names
+        .iter()
+        .map(|n| {
+            specs
+                .iter()
+                .find(|p| &p.name == n)
+                .map_or_else(|| "-".to_string(), |p| p.unit.clone())
+        })
+        .collect()
 }
 
 /// Removes a finished run's checkpoint (the outputs are written, so it is

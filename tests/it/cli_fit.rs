@@ -192,6 +192,34 @@ fn fit_json_has_the_documented_keys_and_one_seed_gives_one_result() {
     assert!(html.contains(&expl), "explanation");
     assert!(html.contains("<th>R-hat</th>") && html.contains("<td>u0</td>"));
     assert!(html.contains("Physical quantities (eq. 8.1)"));
+    // Each parameter with the unit its component declares; no blank
+    // header row or cell of a title.
+    assert!(html.contains("<th>parameter</th><th>unit</th><th>MAP</th>"));
+    for (name, unit) in [("u0", "m"), ("f0", "Hz"), ("rF0", "-")] {
+        assert!(
+            html.contains(&format!("<tr><td>{name}</td><td>{unit}</td>")),
+            "{name} ({unit})"
+        );
+    }
+    assert!(!html.contains("<th></th>"), "a blank header");
+    // The figures are decimated for the page (fit.csv keeps every sample):
+    // a 2,081-sample record with 9 parameters stays well under 1 MB.
+    assert!(
+        html.len() <= 1_000_000,
+        "report.html is {} bytes",
+        html.len()
+    );
+    #[cfg(feature = "figures")]
+    {
+        // The trace's axes carry units: each parameter's, and the step.
+        let trace = html.split("<figure>").nth(3).expect("the trace figure");
+        for label in ["u0 (m)", "f0 (Hz)", "zeta0 (-)", "step of the sampler"] {
+            assert!(
+                trace.contains(&format!(">\n{label}\n</text>")),
+                "trace: {label}"
+            );
+        }
+    }
     // The checkpoint is gone after a successful run.
     assert!(!d.path().join("one/checkpoint").exists());
     assert!(stderr(&one).contains("release detected just before the sample at t = 0.4 s"));
