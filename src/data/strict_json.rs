@@ -10,7 +10,7 @@
 //! let v = hbis::data::strict_json::parse(r#"{"u0": 0.1, "uy": 0.01}"#)?;
 //! assert_eq!(v["uy"], 0.01);
 //! let e = hbis::data::strict_json::parse("{\n\"u0\": 0.1,\n\"u0\": 0.2}").unwrap_err();
-//! assert_eq!(e.to_string(), "duplicate key `u0` at line 3 column 7");
+//! assert_eq!(e.to_string(), "duplicate key `u0` at line 3 column 4");
 //! # Ok::<(), serde_json::Error>(())
 //! ```
 

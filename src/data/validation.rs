@@ -19,9 +19,9 @@
 //! ```
 //! use hbis::data::{record_warnings, AccelUnits, Record};
 //!
-//! // A release recorded in g: 0.03 g is 0.29 m/s^2.
+//! // A release recorded in g (0.03 g is 0.29 m/s^2), decaying to rest.
 //! let t: Vec<f64> = (0..400).map(|i| i as f64 * 0.005).collect();
-//! let a: Vec<f64> = t.iter().map(|t| -0.03 * (3.5 * t).cos()).collect();
+//! let a: Vec<f64> = t.iter().map(|t| -0.03 * (-1.5 * t).exp() * (3.5 * t).cos()).collect();
 //! let rec = Record::new(t, a).unwrap();
 //! let warnings = record_warnings(&rec, &rec.aligned(None).unwrap());
 //! assert_eq!(warnings[0].code, "acceleration-units");
