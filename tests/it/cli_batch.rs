@@ -291,14 +291,10 @@ fn a_rerun_removes_the_temporary_files_killed_runs_left_and_nothing_else() {
 fn a_full_stderr_loses_lines_not_the_run() {
     let d = tempfile::tempdir().unwrap();
     study_of(d.path(), 1);
-    let full = std::fs::OpenOptions::new()
-        .write(true)
-        .open("/dev/full")
-        .unwrap();
     // Shard 2 of 2 holds no item: it prints its plan and writes its summary.
-    let o = std::process::Command::new(env!("CARGO_BIN_EXE_hbis"))
-        .current_dir(d.path())
-        .args([
+    let o = crate::bin::hbis_full_stderr(
+        d.path(),
+        &[
             "batch",
             "--manifest",
             "study.toml",
@@ -306,10 +302,8 @@ fn a_full_stderr_loses_lines_not_the_run() {
             "o",
             "--shard",
             "2/2",
-        ])
-        .stderr(full)
-        .output()
-        .unwrap();
+        ],
+    );
     assert_eq!(o.status.code(), Some(0));
     assert!(d.path().join("o/summary-shard-2-of-2.csv").exists());
 }

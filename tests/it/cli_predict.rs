@@ -394,17 +394,11 @@ fn a_full_stderr_loses_lines_not_the_run() {
         r#"{"model": "trilinear+lcfm+viscous", "seed": 1}"#,
         &[CHAIN],
     );
-    let full = std::fs::OpenOptions::new()
-        .write(true)
-        .open("/dev/full")
-        .unwrap();
     // One draw in the fit: "fewer than --draws 1000" goes to stderr.
-    let o = std::process::Command::new(env!("CARGO_BIN_EXE_hbis"))
-        .current_dir(d.path())
-        .args(["predict", "--fit", "fit", "--synthetic", "--out", "p"])
-        .stderr(full)
-        .output()
-        .unwrap();
+    let o = crate::bin::hbis_full_stderr(
+        d.path(),
+        &["predict", "--fit", "fit", "--synthetic", "--out", "p"],
+    );
     assert_eq!(o.status.code(), Some(0));
     assert!(d.path().join("p/predict.json").exists());
 }

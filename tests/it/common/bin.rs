@@ -39,3 +39,18 @@ pub fn assert_self_contained(html: &str, figures: usize) {
     };
     assert_eq!(html.matches("<figure><svg").count(), expected, "figures");
 }
+
+/// Runs `hbis args...` in `dir` with standard error on `/dev/full`, so
+/// every write to it fails.
+pub fn hbis_full_stderr(dir: &Path, args: &[&str]) -> Output {
+    let full = std::fs::OpenOptions::new()
+        .write(true)
+        .open("/dev/full")
+        .expect("/dev/full");
+    Command::new(env!("CARGO_BIN_EXE_hbis"))
+        .current_dir(dir)
+        .args(args)
+        .stderr(full)
+        .output()
+        .expect("runs")
+}
