@@ -41,11 +41,13 @@
 //!   missing effects, the ladder;
 //! - [`report`]: CSV, `fit.json`, CmdStan chains, figures;
 //! - [`cli`]: the `hbis` command line, arguments and printing over the
-//!   runners.
+//!   runners;
+//! - [`cancel`]: stopping a run another thread has given up on.
 
 // The CLI front end names the library as users do (`hbis::...`).
 extern crate self as hbis;
 
+pub mod cancel;
 pub mod cli;
 pub mod criticism;
 pub mod data;

@@ -23,8 +23,9 @@ use std::sync::mpsc::{self, RecvTimeoutError};
 use std::sync::{Arc, Mutex, PoisonError};
 use std::time::Duration;
 
+use hbis::cancel::Cancel;
 use hbis::data::record::check_size;
-use hbis::data::{limits, synthesize as synth, Aligned, Record, MAX_SAMPLES};
+use hbis::data::{limits, synthesize as synth, Aligned, Record};
 use hbis::inference::ensemble::Moves;
 use hbis::inference::map::MapSettings;
 use hbis::inference::sample::{Progress, SampleSettings};
@@ -69,12 +70,24 @@ struct Abandoned;
 #[derive(Clone, Default)]
 struct Run {
     abandoned: Arc<AtomicBool>,
+    /// Tells the library's loops to stop (a MAP search, a diagnosis's
+    /// refits, a prediction's draws), so an abandoned run stops computing.
+    cancel: Cancel,
     raised: Arc<Mutex<Option<PyErr>>>,
 }
 
 impl Run {
     fn give_up(&self) {
         self.abandoned.store(true, Ordering::SeqCst);
+        self.cancel.cancel();
+    }
+
+    /// MAP settings (the binary's defaults) that stop when the run is
+    /// given up.
+    fn map_settings(&self) -> MapSettings {
+        MapSettings::default()
+            .with_cancel(Some(self.cancel.clone()))
+            .expect("a token is always a valid setting")
     }
 
     /// Ends the run (unwinding out of the library from its progress hook)
@@ -293,7 +306,7 @@ fn values(a: &Bound<'_, PyArray1<f64>>) -> PyResult<Vec<f64>> {
     Ok(a.try_readonly()?.as_array().iter().copied().collect())
 }
 
-/// A record `(t, a)` within the reader's limit ([`MAX_SAMPLES`]), refused
+/// A record `(t, a)` within the reader's limit ([`MAX_SAMPLES`](hbis::data::MAX_SAMPLES)), refused
 /// in its words before it is copied.
 fn record_arrays(
     t: &Bound<'_, PyArray1<f64>>,
@@ -508,7 +521,7 @@ fn simulate<'py>(
 /// A synthetic record: `model` with `params` sampled `n` times at `dt`,
 /// plus white Gaussian noise of `noise` times the peak |a| (seeded).
 /// Returns `(t, a, clean, sigma)`. More samples than a record may hold
-/// ([`MAX_SAMPLES`]) are refused.
+/// ([`MAX_SAMPLES`](hbis::data::MAX_SAMPLES)) are refused.
 #[pyfunction]
 #[pyo3(signature = (model, params, dt, n, noise, seed, effects=Vec::new()))]
 #[allow(clippy::type_complexity, clippy::too_many_arguments)]
@@ -765,9 +778,11 @@ fn fit(
         let dim = Posterior::<Model>::names_for(&m, noise_model).len();
         check_sampler_size(dim, sample.walkers_for(dim), ensembles, max_steps)?;
     }
+    let run = Run::default();
     let options = FitOptions {
         seed,
-        map: MapSettings::default()
+        map: run
+            .map_settings()
             .with_max_evals(max_evals)
             .map_err(|e| value_error(format!("max_evals: {}", chain(&e))))?,
         sample: (!map_only).then_some(sample),
@@ -779,7 +794,6 @@ fn fit(
     };
     let priors = Posterior::default_priors(&m, noise_model);
     let source = source.to_string();
-    let run = Run::default();
     let hook = run.clone();
     interruptible(py, &run, move || {
         let mut report = |p: Progress| {
@@ -843,6 +857,7 @@ fn criticism_setup(
     seed: u64,
     t0: Option<f64>,
     source: &str,
+    settings: &MapSettings,
 ) -> PyResult<Setup> {
     let m = parse_in(registry, model)?;
     let asked = criticize::parse_noise(noise).ok_or_else(|| {
@@ -851,7 +866,7 @@ fn criticism_setup(
         ))
     })?;
     let (data, warnings) = aligned_with_warnings(t, a, t0)?;
-    criticize::setup(m, data, asked, seed, source, warnings).map_err(err)
+    criticize::setup(m, data, asked, seed, source, warnings, settings).map_err(err)
 }
 
 /// `hbis diagnose` on arrays: `diagnosis.json`'s text, the same runner's
@@ -875,9 +890,13 @@ fn diagnose(
     let (t, a) = record_arrays(&t, &a)?;
     let registry = criticism_registry(&effects, candidates, &exclude)?;
     let (model, noise, source) = (model.to_string(), noise.to_string(), source.to_string());
-    interruptible(py, &Run::default(), move || {
-        let s = criticism_setup(&registry, &t, &a, &model, &noise, seed, t0, &source)?;
-        let d = criticize::diagnose(&registry, &s, &MapSettings::default()).map_err(err)?;
+    let run = Run::default();
+    let settings = run.map_settings();
+    interruptible(py, &run, move || {
+        let s = criticism_setup(
+            &registry, &t, &a, &model, &noise, seed, t0, &source, &settings,
+        )?;
+        let d = criticize::diagnose(&registry, &s, &settings).map_err(err)?;
         serde_json::to_string(&d.report).map_err(err)
     })
 }
@@ -909,8 +928,11 @@ fn ladder(
     let (model, noise, source) = (model.to_string(), noise.to_string(), source.to_string());
     let run = Run::default();
     let hook = run.clone();
+    let settings = run.map_settings();
     interruptible(py, &run, move || {
-        let s = criticism_setup(&registry, &t, &a, &model, &noise, seed, t0, &source)?;
+        let s = criticism_setup(
+            &registry, &t, &a, &model, &noise, seed, t0, &source, &settings,
+        )?;
         let mut k = 0usize;
         let mut on_step = |step: &hbis::criticism::Step| {
             hook.check();
@@ -919,14 +941,8 @@ fn ladder(
             }
             k += 1;
         };
-        let l = criticize::ladder(
-            &registry,
-            &s,
-            &MapSettings::default(),
-            max_steps,
-            &mut on_step,
-        )
-        .map_err(err)?;
+        let l =
+            criticize::ladder(&registry, &s, &settings, max_steps, &mut on_step).map_err(err)?;
         serde_json::to_string(&l.report).map_err(err)
     })
 }
@@ -1060,12 +1076,14 @@ fn predict<'py>(
         })
         .collect();
     let n_draws = draws.len();
+    let run = Run::default();
     let opts = hbis::predict::PredictOptions {
         tail,
         capacity,
         band_points: 0,
+        cancel: Some(run.cancel.clone()),
     };
-    let p = interruptible(py, &Run::default(), move || {
+    let p = interruptible(py, &run, move || {
         hbis::predict::predict(&m, &draws, dt, &ag, &opts).map_err(err)
     })?;
     let mut rows = Array2::<f64>::zeros((p.outcomes.len(), 4));

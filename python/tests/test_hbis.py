@@ -592,29 +592,52 @@ def test_a_progress_that_is_not_callable_is_a_type_error_naming_it(call):
 _INTERRUPTED = """
 import sys, time
 import hbis
-rec = hbis.synthesize("trilinear+lcfm+viscous", hbis.table_8_1(5), n=int(sys.argv[1]), seed=11)
+n, callback, job = int(sys.argv[1]), sys.argv[2] == "yes", sys.argv[3]
+rec = hbis.synthesize("trilinear+lcfm+viscous", hbis.table_8_1(5), n=n, seed=11)
 def progress(steps, target, tau):
     if steps == 0:
         print("sampling", flush=True)
+if job == "predict":
+    t, ag = hbis.ground_motion(seed=2, duration=60.0)
+    p = hbis.table_8_1(5)
+    theta = [p[k] for k in hbis.param_names("trilinear+lcfm+viscous")]
 print("ready", flush=True)
 try:
-    f = hbis.fit(rec, seed=4, tau_multiple=1000.0, progress=progress if sys.argv[2] == "yes" else None)
+    if job == "fit":
+        hbis.fit(rec, seed=4, tau_multiple=1000.0, progress=progress if callback else None)
+    elif job == "diagnose":
+        hbis.diagnose(rec, "bilinear+coulomb")
+    else:
+        hbis._hbis.predict("trilinear+lcfm+viscous", [theta] * 100_000, 0.01, ag)
 except KeyboardInterrupt:
     print("interrupted", flush=True)
 else:
     print("finished", flush=True)
+# The abandoned run must stop computing, not finish unseen: the process's
+# CPU time over the next second, once the run's loop has seen the cancel.
+time.sleep(0.5)
+cpu = time.process_time()
+time.sleep(1.0)
+print(f"cpu {time.process_time() - cpu:.3f}", flush=True)
 """
 
 
-@pytest.mark.parametrize("phase, n, callback", [("ready", 1_000_001, "no"), ("sampling", 20_001, "yes")])
-def test_ctrl_c_during_a_fit_raises_keyboard_interrupt_at_once(phase, n, callback, tmp_path):
-    """SIGINT during the MAP of a long record (no callback) or during the
-    sampler (with a progress callback): KeyboardInterrupt within a second,
-    no output left behind."""
+@pytest.mark.parametrize("phase, n, callback, job", [
+    ("ready", 1_000_001, "no", "fit"),
+    ("sampling", 20_001, "yes", "fit"),
+    ("ready", 20_001, "no", "diagnose"),
+    ("ready", 2_001, "no", "predict"),
+])
+def test_ctrl_c_raises_keyboard_interrupt_at_once_and_stops_the_run(phase, n, callback, job, tmp_path):
+    """SIGINT during the MAP of a long record (no callback), during the
+    sampler (with a progress callback), during a diagnosis and during a
+    prediction: KeyboardInterrupt within a second, no output left behind,
+    and the abandoned run stops computing (a run left going would use a
+    whole core or more in the second measured)."""
     import signal
     import sys
 
-    p = subprocess.Popen([sys.executable, "-c", _INTERRUPTED, str(n), callback], cwd=tmp_path,
+    p = subprocess.Popen([sys.executable, "-c", _INTERRUPTED, str(n), callback, job], cwd=tmp_path,
                          stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
         lines = []
@@ -636,6 +659,9 @@ def test_ctrl_c_during_a_fit_raises_keyboard_interrupt_at_once(phase, n, callbac
         delay = time.monotonic() - sent
         assert last == "interrupted", (last, p.stderr.read())
         assert delay < 1.0, f"KeyboardInterrupt {delay:.2f} s after SIGINT"
+        cpu = p.stdout.readline().strip()
+        assert cpu.startswith("cpu "), (cpu, p.stderr.read())
+        assert float(cpu[4:]) < 0.25, f"the abandoned {job} still computes: {cpu} s of CPU in 1 s"
         assert p.wait(timeout=30) == 0
     finally:
         if p.poll() is None:

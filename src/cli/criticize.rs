@@ -106,6 +106,7 @@ fn load(a: &Args, registry: &Registry) -> Result<Setup> {
         a.seed,
         &a.data.display().to_string(),
         warnings,
+        &MapSettings::default(),
     )
     .context("setting up the record")?;
     if s.release_placed() {

@@ -110,6 +110,7 @@ fn criticize(out: &mut impl Write, dir: &mut OutDir) -> Result<()> {
         SEED,
         &path.display().to_string(),
         warnings,
+        &MapSettings::default(),
     )?;
     let ladder =
         super::criticize::ladder_steps(&registry, &s, hbis::study::criticize::MAX_LADDER_STEPS)?;
@@ -266,6 +267,7 @@ fn earthquake(out: &mut impl Write, dir: &mut OutDir) -> Result<()> {
             tail: 20.0,
             capacity: Some(0.3),
             band_points: 2000,
+            cancel: None,
         },
     };
     writeln!(

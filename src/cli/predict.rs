@@ -91,6 +91,7 @@ pub fn run(a: Args) -> Result<()> {
             tail: a.tail,
             capacity: a.capacity,
             band_points: 2000,
+            cancel: None,
         },
     };
     // The fit's folder is an input too: an output folder holding it would

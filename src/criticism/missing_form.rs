@@ -63,7 +63,7 @@ use serde::Serialize;
 
 use super::ranking::{fit_model, CriticismError, ModelFit, NUMERIC_BUDGET, SUPPORT};
 use crate::data::Aligned;
-use crate::inference::{MapSettings, Polish, Posterior};
+use crate::inference::{MapError, MapSettings, Polish, Posterior};
 use crate::model::effect_file::FileEffect;
 use crate::model::{ForwardModel, Model};
 
@@ -432,6 +432,7 @@ pub fn missing_form(
     model: &Model,
     fit: &ModelFit,
     data: &Aligned,
+    settings: &MapSettings,
 ) -> Result<MissingForm, CriticismError> {
     let theta = fit.model_theta(model);
     let n = data.a.len();
@@ -543,7 +544,7 @@ pub fn missing_form(
             own + terms
         })
         .collect();
-    let mut form = refined(model, fit, data, &cols, terms);
+    let mut form = refined(model, fit, data, &cols, terms, settings)?;
     form.series = Some(FormSeries {
         t,
         u,
@@ -565,7 +566,8 @@ fn refined(
     data: &Aligned,
     cols: &[&Column],
     mut terms: Vec<Term>,
-) -> MissingForm {
+    settings: &MapSettings,
+) -> Result<MissingForm, CriticismError> {
     let text = effect_file_text(cols, &terms);
     let refit = FileEffect::from_toml(&text, "missing-form")
         .ok()
@@ -586,7 +588,8 @@ fn refined(
                     start[k] = t.coefficient;
                 }
             }
-            let settings = MapSettings::default()
+            let settings = settings
+                .clone()
                 .with_max_evals(NUMERIC_BUDGET)
                 .ok()?
                 .with_polish(Some(Polish::default().with_max_iters(300).ok()?))
@@ -602,6 +605,11 @@ fn refined(
             .ok()?;
             (refit.log_likelihood > fit.log_likelihood).then_some((extended, refit))
         });
+    // The refit's failures leave the linear estimates, but a cancelled
+    // run must end, not report them.
+    if let Some(c) = settings.cancel() {
+        c.check().map_err(MapError::from)?;
+    }
     let (e2_with, delta_bic) = match refit {
         Some((extended, r)) => {
             let layout = extended.layout();
@@ -621,13 +629,13 @@ fn refined(
         }
         None => (None, None),
     };
-    MissingForm {
+    Ok(MissingForm {
         effect_file: Some(effect_file_text(cols, &terms)),
         terms,
         e2_with,
         delta_bic,
         series: None,
-    }
+    })
 }
 
 /// The effect file of `terms` (the columns they came from): each term's

@@ -41,6 +41,7 @@ use rayon::prelude::*;
 use thiserror::Error;
 
 use super::bounds::BoxTransform;
+use crate::cancel::{Cancel, Cancelled};
 
 /// Why CMA-ES could not be configured or run.
 #[derive(Debug, Error, Clone, PartialEq)]
@@ -57,6 +58,9 @@ pub enum CmaesError {
     /// The objective returned NaN (a bug in the objective, never a cost).
     #[error("objective returned NaN at x = {x:?}")]
     NaN { x: Vec<f64> },
+    /// The run was cancelled ([`Cmaes::with_cancel`]).
+    #[error(transparent)]
+    Cancelled(#[from] Cancelled),
 }
 
 /// Where each run starts.
@@ -150,6 +154,7 @@ pub struct Cmaes {
     max_generations: Option<usize>,
     bounds: Option<BoxTransform>,
     parallel: bool,
+    cancel: Option<Cancel>,
 }
 
 impl Cmaes {
@@ -174,6 +179,7 @@ impl Cmaes {
             max_generations: None,
             bounds: None,
             parallel: false,
+            cancel: None,
         })
     }
 
@@ -266,6 +272,13 @@ impl Cmaes {
     /// Evaluate each population in parallel with rayon.
     pub fn with_parallel(mut self, parallel: bool) -> Result<Self, CmaesError> {
         self.parallel = parallel;
+        Ok(self)
+    }
+
+    /// Checks `cancel` before each generation: once it is cancelled,
+    /// [`Cmaes::minimize`] ends with [`CmaesError::Cancelled`].
+    pub fn with_cancel(mut self, cancel: Option<Cancel>) -> Result<Self, CmaesError> {
+        self.cancel = cancel;
         Ok(self)
     }
 
@@ -482,6 +495,9 @@ impl Run {
         let hist_len = 10 + (30.0 * n as f64 / lambda as f64).ceil() as usize;
         let stag_max = 20_000usize;
         loop {
+            if let Some(c) = &cfg.cancel {
+                c.check()?;
+            }
             // Sample serially so the stream of random numbers is fixed.
             let mut ys = Vec::with_capacity(lambda);
             let mut xs = Vec::with_capacity(lambda);
@@ -677,6 +693,33 @@ mod tests {
             + x.iter()
                 .map(|v| v * v - 10.0 * (2.0 * std::f64::consts::PI * v).cos())
                 .sum::<f64>()
+    }
+
+    #[test]
+    fn a_cancelled_run_ends_at_its_next_generation() {
+        use std::sync::atomic::{AtomicUsize, Ordering};
+        let token = Cancel::new();
+        let calls = AtomicUsize::new(0);
+        let f = |x: &[f64]| {
+            // Cancelled from "another thread" after 100 evaluations.
+            if calls.fetch_add(1, Ordering::SeqCst) + 1 == 100 {
+                token.cancel();
+            }
+            rosenbrock(x)
+        };
+        let cmaes = Cmaes::new(0.5)
+            .unwrap()
+            .with_popsize(10)
+            .unwrap()
+            .with_cancel(Some(token.clone()))
+            .unwrap();
+        let mut rng = StdRng::seed_from_u64(3);
+        let err = cmaes
+            .minimize(f, &Start::Point(vec![0.0; 6]), &mut rng)
+            .unwrap_err();
+        assert!(matches!(err, CmaesError::Cancelled(_)), "{err:?}");
+        // Popsize 10: the cancel came at the end of the tenth generation.
+        assert_eq!(calls.load(Ordering::SeqCst), 100);
     }
 
     /// Median evaluations to reach `f < 1e-8` over `runs` seeds, pycma's setup.

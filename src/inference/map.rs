@@ -22,6 +22,7 @@ use super::bounds::BoxTransform;
 use super::cmaes::{Cmaes, CmaesError, RunSummary, Start};
 use super::polish::{Polish, PolishError};
 use super::posterior::{Evaluation, Posterior, PosteriorError};
+use crate::cancel::{Cancel, Cancelled};
 use crate::model::ForwardModel;
 
 /// Why the MAP search failed.
@@ -47,6 +48,9 @@ pub enum MapError {
         "no parameter set with positive posterior density was found in {evaluations} evaluations"
     )]
     NothingFeasible { evaluations: usize },
+    /// The search was cancelled ([`MapSettings::with_cancel`]).
+    #[error(transparent)]
+    Cancelled(#[from] Cancelled),
 }
 
 /// Settings of the MAP search.
@@ -61,6 +65,7 @@ pub struct MapSettings {
     parallel: bool,
     polish: Option<Polish>,
     initial: Option<Vec<f64>>,
+    cancel: Option<Cancel>,
 }
 
 impl Default for MapSettings {
@@ -75,6 +80,7 @@ impl Default for MapSettings {
             parallel: true,
             polish: Some(Polish::default()),
             initial: None,
+            cancel: None,
         }
     }
 }
@@ -151,6 +157,19 @@ impl MapSettings {
     pub fn with_polish(mut self, polish: Option<Polish>) -> Result<Self, MapError> {
         self.polish = polish;
         Ok(self)
+    }
+
+    /// Stop with [`MapError::Cancelled`] at the next CMA-ES generation once
+    /// `cancel` is cancelled; every search run with these settings (a fit's,
+    /// each refit of a diagnosis or ladder) checks it.
+    pub fn with_cancel(mut self, cancel: Option<Cancel>) -> Result<Self, MapError> {
+        self.cancel = cancel;
+        Ok(self)
+    }
+
+    /// The token given to [`MapSettings::with_cancel`], if any.
+    pub fn cancel(&self) -> Option<&Cancel> {
+        self.cancel.as_ref()
     }
 }
 
@@ -309,7 +328,8 @@ where
             .with_max_evals(settings.max_evals - evaluations)?
             .with_tol_fun(settings.tol_fun)?
             .with_max_generations(settings.max_generations)?
-            .with_parallel(settings.parallel)?;
+            .with_parallel(settings.parallel)?
+            .with_cancel(settings.cancel.clone())?;
         let first = match (&settings.initial, warm) {
             (Some(theta), true) if theta.len() == d => {
                 // The start itself is a candidate: CMA-ES never evaluates its mean.
@@ -329,6 +349,7 @@ where
                 CmaesError::NaN { x } => MapError::Posterior(PosteriorError::NaN {
                     theta: to_theta(&x),
                 }),
+                CmaesError::Cancelled(c) => MapError::Cancelled(c),
                 other => MapError::Cmaes(other),
             })?;
         evaluations += result.evaluations;
@@ -363,6 +384,9 @@ where
     let before = posterior.evaluate(&theta)?;
     let mut eval = before;
     let mut polish_report = None;
+    if let Some(c) = &settings.cancel {
+        c.check()?;
+    }
     if let Some(polish) = &settings.polish {
         let scale: Vec<f64> = (0..d).map(|i| hi[i] - lo[i]).collect();
         let out = polish.run(posterior.clone(), &theta, &scale)?;

@@ -16,8 +16,9 @@
 //! let registry = Registry::builtin();
 //! let data = Record::read("record.csv".as_ref())?.aligned(None)?;
 //! let model = registry.parse("bilinear+coulomb")?;
-//! let s = setup(model, data, None, 1, "record.csv", Vec::new())?;
-//! let d = diagnose(&registry, &s, &MapSettings::default())?;
+//! let settings = MapSettings::default();
+//! let s = setup(model, data, None, 1, "record.csv", Vec::new(), &settings)?;
+//! let d = diagnose(&registry, &s, &settings)?;
 //! println!("{}", d.report.conclusion);
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
@@ -114,13 +115,13 @@ pub fn setup(
     seed: u64,
     source: &str,
     warnings: Vec<Warning>,
+    settings: &MapSettings,
 ) -> Result<Setup, CriticizeError> {
-    let settings = MapSettings::default();
-    let data = place_release(&model, data, &settings, seed ^ RELEASE_SEED)?;
+    let data = place_release(&model, data, settings, seed ^ RELEASE_SEED)?;
     let (noise, noise_choice) = match noise {
         Some(n) => (n, None),
         None => {
-            let c = choose_noise(&model, &data, &settings, seed ^ NOISE_SEED)?;
+            let c = choose_noise(&model, &data, settings, seed ^ NOISE_SEED)?;
             (c.chosen, Some(c))
         }
     };
@@ -221,7 +222,7 @@ pub fn diagnose(
         caution: crate::criticism::caution(&candidates),
         conclusion: crate::criticism::conclusion(&residual, &candidates),
         verdict: residual.verdict.clone(),
-        missing_form: missing_form(&s.model, &fit, &s.data)?,
+        missing_form: missing_form(&s.model, &fit, &s.data, settings)?,
         warnings: with_fit_warnings(s.warnings.clone(), &s.model, &fit),
         candidates,
         residual,
@@ -399,7 +400,7 @@ pub fn ladder(
         .clone()
         .with_lag(steps.last().map_or(s.data.lag, |x| x.lag));
     let missing = match steps.last() {
-        Some(last) => missing_form(&registry.parse(&last.model)?, &last.fit, &data)?,
+        Some(last) => missing_form(&registry.parse(&last.model)?, &last.fit, &data, settings)?,
         None => MissingForm::none(),
     };
     let report = LadderReport {

@@ -32,6 +32,7 @@ use rayon::prelude::*;
 use serde::Serialize;
 use thiserror::Error;
 
+use crate::cancel::{Cancel, Cancelled};
 use crate::inference::summary::{quantile, ParamSummary};
 use crate::model::forced::{Excitation, ForcedSink, Peaks};
 use crate::model::{ForwardModel, Model, Registry, SimError};
@@ -41,6 +42,9 @@ use crate::report::verify::{check_files, read_manifest, VerifyError};
 /// What went wrong in a prediction.
 #[derive(Debug, Error)]
 pub enum PredictError {
+    /// The prediction was cancelled ([`PredictOptions::cancel`]).
+    #[error(transparent)]
+    Cancelled(#[from] Cancelled),
     /// A file of the fit could not be read.
     #[error("cannot read {path}")]
     Io {
@@ -116,6 +120,9 @@ pub struct PredictOptions {
     pub capacity: Option<f64>,
     /// Points of the response band over time (0: none).
     pub band_points: usize,
+    /// Checked before each draw: once cancelled, the prediction ends with
+    /// [`PredictError::Cancelled`].
+    pub cancel: Option<Cancel>,
 }
 
 impl Default for PredictOptions {
@@ -124,6 +131,7 @@ impl Default for PredictOptions {
             tail: 20.0,
             capacity: None,
             band_points: 0,
+            cancel: None,
         }
     }
 }
@@ -304,6 +312,9 @@ pub fn predict(
         .zip(chunks)
         .enumerate()
         .map(|(i, (d, row))| {
+            if let Some(c) = &opts.cancel {
+                c.check()?;
+            }
             let mut sink = (Decimated { every, row }, Speeds::default());
             let peaks = model
                 .forced(&d.theta, &ex, &mut sink)
@@ -747,5 +758,23 @@ mod tests {
         let shear = two.summary.peak_base_shear.mean;
         assert!((kn.mean - 1500.0 * shear).abs() < 1e-9 * kn.mean);
         assert!(predict(&model, &[], 0.01, &ag, &opts).is_err());
+    }
+
+    #[test]
+    fn a_cancelled_prediction_ends_with_cancelled() {
+        let model = Registry::builtin().parse("trilinear+lcfm+viscous").unwrap();
+        let p = Params::table_8_1(5).unwrap();
+        let theta = model.theta_from_params(&p, &[]).unwrap();
+        let ag = shake(3.0);
+        let cancel = Cancel::new();
+        let opts = PredictOptions {
+            cancel: Some(cancel.clone()),
+            ..Default::default()
+        };
+        let draws = vec![Draw::new(theta); 4];
+        assert!(predict(&model, &draws, 0.01, &ag, &opts).is_ok());
+        cancel.cancel();
+        let err = predict(&model, &draws, 0.01, &ag, &opts).unwrap_err();
+        assert!(matches!(err, PredictError::Cancelled(_)), "{err}");
     }
 }

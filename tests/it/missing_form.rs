@@ -65,7 +65,7 @@ fn a_viscoelastic_rubber_is_described_as_a_memory_force() {
         .find(|c| c.accepted)
         .map(|c| c.effect.as_str());
     println!("accepted: {stand_in:?}");
-    let form = missing_form(&start, &fit, &data).unwrap();
+    let form = missing_form(&start, &fit, &data, &MapSettings::default()).unwrap();
     println!("{:?}", form.terms);
     let first = &form.terms[0];
     assert_eq!(first.kind, "memory");
@@ -96,7 +96,7 @@ fn nothing_missing_names_no_term() {
         1,
     )
     .unwrap();
-    let form = missing_form(&model, &fit, &data).unwrap();
+    let form = missing_form(&model, &fit, &data, &MapSettings::default()).unwrap();
     println!("record seed 7, seed 1: {:?}", form.terms);
     assert!(form.terms.is_empty());
     assert!(form.effect_file.is_none());
