@@ -55,10 +55,15 @@ pub fn run(a: Args) -> Result<()> {
     let study =
         Study::parse(&text, base).with_context(|| format!("in {}", a.manifest.display()))?;
     let plans = batch_run::plan(&study, &super::base_registry(), &a.out)?;
-    // Every item's options are checked as `hbis fit` checks them before
+    // Every item's options are checked as `hbis fit` checks them (flags,
+    // then values such as `max-evals = 0`, priors and effect files) before
     // any is run: a typo costs nothing.
     for p in &plans {
-        parse_fit(&study, &p.item, &p.args)?;
+        let args = parse_fit(&study, &p.item, &p.args)?;
+        fit::check(&args).map_err(|e| {
+            let chain = with_key(&study, &p.item, e.chain().map(|c| c.to_string()).collect());
+            anyhow::anyhow!("{}: {}", describe(&study, &p.item), chain.join(": "))
+        })?;
     }
     if a.collect {
         let path = batch_run::collect(&study, &plans, &a.out, &a.manifest)?;

@@ -133,22 +133,42 @@ impl ChainArgs {
     }
 }
 
-pub fn run(a: Args) -> Result<()> {
+/// Checks every option as [`run`] does, without reading the record or
+/// computing: `hbis batch` calls it for every item before running any.
+pub fn check(a: &Args) -> Result<()> {
     let registry = a.effects.registry()?;
     let model = inputs::model(&registry, &a.model)?;
+    let noise = parsed_noise(a)?;
+    checked_model(a, &model)?;
+    priors(a, &model, noise)?;
+    options(a, &model, noise)?;
+    Ok(())
+}
+
+fn parsed_noise(a: &Args) -> Result<Noise> {
+    Noise::parse(&a.noise)
+        .with_context(|| format!("--noise `{}`: expected `white` or `ar1`", a.noise))
+}
+
+fn checked_model(a: &Args, model: &Model) -> Result<()> {
     if a.released_force.is_some() {
-        hbis::model::physical::check_convertible(&model).context("--released-force")?;
+        hbis::model::physical::check_convertible(model).context("--released-force")?;
     }
-    let noise = Noise::parse(&a.noise)
-        .with_context(|| format!("--noise `{}`: expected `white` or `ar1`", a.noise))?;
-    let (data, record_warnings) = inputs::record(&a.data, &a.record, a.t0)?;
-    let defaults = Posterior::default_priors(&model, noise);
-    let priors = match &a.prior {
+    Ok(())
+}
+
+fn priors(a: &Args, model: &Model, noise: Noise) -> Result<Priors> {
+    let defaults = Posterior::default_priors(model, noise);
+    match &a.prior {
         Some(p) => defaults
             .read(p)
-            .with_context(|| format!("in prior file {}", p.display()))?,
-        None => defaults,
-    };
+            .with_context(|| format!("in prior file {}", p.display())),
+        None => Ok(defaults),
+    }
+}
+
+/// The fit's settings from the flags, each checked and named.
+fn options(a: &Args, model: &Model, noise: Noise) -> Result<FitOptions> {
     a.chains.check()?;
     if !(a.design_target > 0.0 && a.design_target < 1.0) {
         anyhow::bail!(
@@ -177,10 +197,10 @@ pub fn run(a: Args) -> Result<()> {
         .map_err(|e| anyhow::anyhow!("--moves `{}`: {e}", a.moves))?;
     sample = sample.with_moves(moves);
     if !a.map_only {
-        let dim = Posterior::<Model>::names_for(&model, noise).len();
+        let dim = Posterior::<Model>::names_for(model, noise).len();
         hbis::data::limits::sampler(dim, sample.walkers_for(dim), a.ensembles, a.max_steps)?;
     }
-    let options = FitOptions {
+    Ok(FitOptions {
         seed: a.seed,
         map: MapSettings::default()
             .with_max_evals(a.max_evals)
@@ -191,7 +211,17 @@ pub fn run(a: Args) -> Result<()> {
         label: a.data.display().to_string(),
         evidence: a.evidence,
         design_target: (!a.no_design).then_some(a.design_target),
-    };
+    })
+}
+
+pub fn run(a: Args) -> Result<()> {
+    let registry = a.effects.registry()?;
+    let model = inputs::model(&registry, &a.model)?;
+    checked_model(&a, &model)?;
+    let noise = parsed_noise(&a)?;
+    let (data, record_warnings) = inputs::record(&a.data, &a.record, a.t0)?;
+    let priors = priors(&a, &model, noise)?;
+    let options = options(&a, &model, noise)?;
     // The folder is locked and checked before any computation: a busy or
     // unwritable --out costs nothing.
     let mut inputs_used: Vec<&Path> = vec![&a.data];

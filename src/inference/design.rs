@@ -338,7 +338,9 @@ impl<'a, M: ForwardModel> Evaluator<'a, M> {
             theta[i] = d.amplitude_m;
         }
         let dt = 1.0 / d.rate_hz;
-        let n = ((d.duration_s / dt).round() as usize + 1).clamp(2, MAX_SAMPLES);
+        let n = ((d.duration_s / dt).round() as usize)
+            .saturating_add(1)
+            .clamp(2, MAX_SAMPLES);
         let model = self.posterior.model();
         let (lo, hi) = self.posterior.priors().box_bounds();
         let mut centre = vec![0.0; n];

@@ -205,6 +205,15 @@ impl Response {
     pub fn sample_grid(&self, dt: f64) -> Result<Vec<Sample>, SimError> {
         let n = grid_len(dt, self.duration);
         check_grid(dt, n)?;
+        // Refused before the allocation, for callers who skipped
+        // `data::limits::grid`.
+        if n as f64 > crate::data::limits::MAX_GRID_SAMPLES {
+            return Err(SimError::Grid {
+                name: "samples",
+                value: n as f64,
+                requirement: "at most 1e7 (hbis::data::limits::MAX_GRID_SAMPLES): use a larger dt",
+            });
+        }
         let mut out = Vec::with_capacity(n);
         let mut sampler = GridSampler::new(dt, n, |i, u, v, p: &Phase| {
             out.push(self.sample(i as f64 * dt, u, v, p))
@@ -236,7 +245,8 @@ impl Response {
                 // the phase's own time scales.
                 let rate = p.lin.stiffness().abs().sqrt() + p.lin.alpha() + 1.0;
                 let len = p.t_end - p.t_start;
-                let pieces = ((len * rate / 0.5).ceil() as usize).max(1);
+                // Bounded: an absurd stiffness must not make the loop endless.
+                let pieces = ((len * rate / 0.5).ceil() as usize).clamp(1, 1 << 20);
                 let h = len / pieces as f64;
                 let mut w_d = 0.0;
                 for j in 0..pieces {
@@ -258,10 +268,12 @@ impl Response {
     }
 }
 
-/// Number of grid samples `i dt <= duration` (tolerating round-off).
+/// Number of grid samples `i dt <= duration` (tolerating round-off);
+/// `usize::MAX` for a grid too long to count (the float-to-integer cast
+/// saturates, and so does the `+ 1`, so nothing wraps to a short grid).
 pub fn grid_len(dt: f64, duration: f64) -> usize {
     if !(dt > 0.0 && duration >= 0.0 && dt.is_finite() && duration.is_finite()) {
         return 0;
     }
-    (duration / dt * (1.0 + 1e-12)).floor() as usize + 1
+    ((duration / dt * (1.0 + 1e-12)).floor() as usize).saturating_add(1)
 }

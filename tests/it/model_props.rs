@@ -75,3 +75,19 @@ proptest! {
         check(spec, &u, 0.005, 801)?;
     }
 }
+
+/// A grid too long to hold is an error before any allocation, also for a
+/// library caller who skipped `data::limits::grid`; its length saturates
+/// instead of wrapping to a short grid.
+#[test]
+fn a_grid_too_long_to_hold_is_refused_not_allocated() {
+    use hbis::model::response::grid_len;
+    use hbis::model::{ModelSpec, Params, Response};
+    assert_eq!(grid_len(1e-300, 1e300), usize::MAX);
+    assert_eq!(grid_len(0.01, 1.0), 101);
+    let spec: ModelSpec = "trilinear+lcfm+viscous".parse().unwrap();
+    let r = Response::simulate(&spec, &Params::table_8_1(5).unwrap(), 10.0).unwrap();
+    let err = r.sample_grid(1e-300).unwrap_err().to_string();
+    assert!(err.contains("at most 1e7"), "{err}");
+    assert_eq!(r.sample_grid(0.01).unwrap().len(), 1001);
+}
