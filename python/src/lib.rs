@@ -331,14 +331,9 @@ fn check_sampler_size(dim: usize, w: usize, ensembles: usize, max_steps: usize) 
 }
 
 /// A physical argument that must be a finite number > 0, refused in the
-/// words of `hbis predict` (`--mass -5: expected a finite number > 0`).
+/// library's words ([`hbis::predict::positive`]), as `hbis predict` does.
 fn check_positive(name: &str, v: f64) -> PyResult<()> {
-    if !(v.is_finite() && v > 0.0) {
-        return Err(value_error(format!(
-            "{name} {v}: expected a finite number > 0"
-        )));
-    }
-    Ok(())
+    hbis::predict::positive(name, v).map_err(err)
 }
 
 /// A progress callback, checked to be callable before any work.

@@ -678,7 +678,7 @@ def test_physical_arguments_are_refused_naming_them():
             hbis.predict(p, ag, 0.01, mass=mass)
     with pytest.raises(ValueError, match=r"^masses\[1\] -1: expected a finite number > 0"):
         hbis._hbis.predict(MODEL, [list(p.values())] * 2, 0.01, ag, masses=[1.0, -1.0])
-    with pytest.raises(ValueError, match=r"capacity -0.1 m: expected a finite displacement > 0"):
+    with pytest.raises(ValueError, match=r"^capacity -0.1: expected a finite number > 0$"):
         hbis.predict(p, ag, 0.01, capacity=-0.1)
     with pytest.raises(ValueError, match="pga must be > 0"):
         hbis.ground_motion(pga=-1.0)

@@ -127,23 +127,17 @@ pub fn run(a: Args) -> Result<()> {
 
 /// Settings refused before any work.
 fn check(a: &Args) -> Result<()> {
-    let positive = |name: &str, v: f64| -> Result<()> {
-        if !(v.is_finite() && v > 0.0) {
-            bail!("--{name} {v}: expected a finite number > 0");
-        }
-        Ok(())
-    };
     if !(a.tail.is_finite() && a.tail >= 0.0) {
         bail!("--tail {}: expected a finite time >= 0 s", a.tail);
     }
     if let Some(c) = a.capacity {
-        positive("capacity", c)?;
+        hbis::predict::positive("--capacity", c)?;
     }
     if let Some(m) = a.mass {
-        positive("mass", m)?;
+        hbis::predict::positive("--mass", m)?;
     }
     if a.synthetic {
-        positive("pga", a.pga)?;
+        hbis::predict::positive("--pga", a.pga)?;
     }
     if a.draws == 0 {
         bail!("--draws 0: expected at least one draw");

@@ -276,6 +276,26 @@ impl ForcedSink for Speeds {
     }
 }
 
+/// Refuses a value that must be a finite number > 0 (a mass, a capacity,
+/// a PGA), in the words every front end uses: `name` is the flag or
+/// argument (`--mass`, `masses[1]`).
+///
+/// ```
+/// use hbis::predict::positive;
+/// assert!(positive("mass", 5.0).is_ok());
+/// let e = positive("--mass", -5.0).unwrap_err();
+/// assert_eq!(e.to_string(), "--mass -5: expected a finite number > 0");
+/// ```
+pub fn positive(name: &str, v: f64) -> Result<(), PredictError> {
+    if v.is_finite() && v > 0.0 {
+        Ok(())
+    } else {
+        Err(PredictError::Invalid(format!(
+            "{name} {v}: expected a finite number > 0"
+        )))
+    }
+}
+
 /// Simulates every draw under the ground acceleration `ag` (m/s^2, step
 /// `dt`) from rest and summarises, in parallel (the result does not depend
 /// on the number of threads).
@@ -289,10 +309,13 @@ pub fn predict(
     if draws.is_empty() {
         return Err(PredictError::Invalid("no draws to simulate".into()));
     }
-    if let Some(c) = opts.capacity.filter(|c| !(c.is_finite() && *c > 0.0)) {
-        return Err(PredictError::Invalid(format!(
-            "capacity {c} m: expected a finite displacement > 0"
-        )));
+    if let Some(c) = opts.capacity {
+        positive("capacity", c)?;
+    }
+    for (i, d) in draws.iter().enumerate() {
+        if let Some(m) = d.mass {
+            positive(&format!("draw {i}: mass"), m)?;
+        }
     }
     let ex = Excitation::new(dt, ag, opts.tail)
         .map_err(|e| PredictError::Invalid(format!("the ground motion: {e}")))?;
@@ -758,6 +781,33 @@ mod tests {
         let shear = two.summary.peak_base_shear.mean;
         assert!((kn.mean - 1500.0 * shear).abs() < 1e-9 * kn.mean);
         assert!(predict(&model, &[], 0.01, &ag, &opts).is_err());
+    }
+
+    #[test]
+    fn a_mass_or_capacity_that_is_not_positive_is_refused_naming_it() {
+        let model = Registry::builtin().parse("trilinear+lcfm+viscous").unwrap();
+        let p = Params::table_8_1(5).unwrap();
+        let theta = model.theta_from_params(&p, &[]).unwrap();
+        let ag = shake(1.0);
+        let mut draws = vec![Draw::new(theta); 2];
+        draws[0].mass = Some(5.0);
+        draws[1].mass = Some(-1.0);
+        let err = predict(&model, &draws, 0.01, &ag, &PredictOptions::default()).unwrap_err();
+        assert_eq!(
+            err.to_string(),
+            "draw 1: mass -1: expected a finite number > 0"
+        );
+        draws[1].mass = Some(5.0);
+        let opts = PredictOptions {
+            capacity: Some(f64::NAN),
+            ..Default::default()
+        };
+        let err = predict(&model, &draws, 0.01, &ag, &opts).unwrap_err();
+        assert_eq!(
+            err.to_string(),
+            "capacity NaN: expected a finite number > 0"
+        );
+        assert!(predict(&model, &draws, 0.01, &ag, &PredictOptions::default()).is_ok());
     }
 
     #[test]
