@@ -82,6 +82,15 @@ pub fn run(a: Args) -> Result<()> {
     let mut fit = |p: &Plan| -> Result<(), Vec<String>> {
         parse_fit(&study, &p.item, &p.args)
             .and_then(fit::run)
+            .or_else(|e| match e.downcast_ref::<super::Unconverged>() {
+                // Its outputs are written and fit.json says so: the item is
+                // done, and the study says it did not converge.
+                Some(u) => {
+                    say!("{}: {u}", describe(&study, &p.item));
+                    Ok(())
+                }
+                None => Err(e),
+            })
             .map_err(|e| with_key(&study, &p.item, e.chain().map(|c| c.to_string()).collect()))
     };
     let mut on_event = |e: Event<'_>| match e {

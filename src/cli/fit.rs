@@ -92,6 +92,10 @@ pub struct Args {
     /// Skip the design table.
     #[arg(long)]
     no_design: bool,
+    /// Exit 0 even when the posterior sample did not converge (by default
+    /// such a fit writes every output, then exits 3).
+    #[arg(long)]
+    allow_unconverged: bool,
     #[command(flatten)]
     chains: ChainArgs,
 }
@@ -294,7 +298,13 @@ pub fn run(a: Args) -> Result<()> {
     if a.json {
         super::print_stdout(&(serde_json::to_string_pretty(&report)? + "\n"))?;
     }
-    Ok(())
+    match &fit.sample {
+        Some(s) if !s.converged && !a.allow_unconverged => Err(super::Unconverged {
+            reason: s.not_converged.clone(),
+        }
+        .into()),
+        _ => Ok(()),
+    }
 }
 
 /// Removes a finished run's checkpoint; a failure is a warning, since the

@@ -114,6 +114,19 @@ where
     dispatch(cli)
 }
 
+/// Exit code of a fit whose posterior sample did not converge (every
+/// output written); `--allow-unconverged` makes it 0.
+pub const EXIT_UNCONVERGED: u8 = 3;
+
+/// A fit whose posterior sample did not converge, after every output was
+/// written: a result that is probably not yet a posterior is not a success.
+#[derive(Debug, thiserror::Error)]
+#[error("the posterior sample did not converge: {reason}; every output is written, and fit.json says `converged: false`")]
+pub struct Unconverged {
+    /// Why, as `fit.json`'s `sampling.not_converged` says.
+    pub reason: String,
+}
+
 /// Parse the arguments, run, and turn the outcome into an exit code.
 pub fn main() -> ExitCode {
     // clap prints its own usage errors and exits with code 2.
@@ -133,6 +146,13 @@ fn dispatch(cli: Cli) -> ExitCode {
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
+        Err(e) if e.is::<Unconverged>() => {
+            let _ = writeln!(
+                std::io::stderr(),
+                "hbis: {e} (exit {EXIT_UNCONVERGED}; --allow-unconverged exits 0)"
+            );
+            ExitCode::from(EXIT_UNCONVERGED)
+        }
         Err(e) => {
             let chain: Vec<String> = e.chain().map(|c| c.to_string()).collect();
             // A closed or full stderr must not turn an error into a panic.

@@ -625,6 +625,28 @@ NPTS=     7, DT=   .0100 SEC\n\
         };
         let e = huge.generate(1).unwrap_err().to_string();
         assert!(e.contains("more than the 2000000 samples"), "{e}");
+        let coarse = KanaiTajimi {
+            dt: 0.5,
+            ..KanaiTajimi::default()
+        };
+        let e = coarse.generate(1).unwrap_err().to_string();
+        assert!(e.contains("time step 5e-1 s"), "{e}");
+    }
+
+    /// Issue 37: a two-column file longer than any motion is refused at
+    /// its first sample too many.
+    #[test]
+    fn a_two_column_motion_of_more_than_max_samples_is_refused() {
+        let text: String = (0..=MAX_SAMPLES)
+            .map(|i| format!("{} 0.1\n", i as f64 * 0.01))
+            .collect();
+        let e = GroundMotion::parse_columns(&text, AccelUnits::G)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("line 2000001: more than the 2000000 samples"),
+            "{e}"
+        );
     }
 
     #[test]

@@ -969,6 +969,16 @@ mod tests {
         std::fs::write(&path, b"t,a\n0,1\n0.01,\xff2\n").unwrap();
         let e = Record::read(&path).unwrap_err().to_string();
         assert!(e.contains("line 3: byte 6 of the line is not UTF-8"), "{e}");
+        // Just above MAX_STEP: 0.2 s (5 Hz) is refused too.
+        let coarse: String = (0..300)
+            .map(|i| format!("{},{}\n", 0.2 * i as f64, (0.02 * i as f64).cos()))
+            .collect();
+        let e = Record::parse(&coarse, 2)
+            .unwrap()
+            .aligned(Some(0.0))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("coarser than the 0.1 s"), "{e}");
     }
 
     #[test]

@@ -474,5 +474,10 @@ mod tests {
         assert!(err(r#"{"f0": {"dist": "cauchy"}}"#).contains("prior for `f0`"));
         assert!(err(r#"{"u0": {"dist": "uniform", "lower": 2, "upper": 1}}"#).contains("`u0`"));
         assert!(err("{").contains("not valid JSON"));
+        // Issue 37: the second `f0` was kept without a word.
+        let twice = r#"{"f0": {"dist": "uniform", "lower": 0.2, "upper": 1},
+                        "f0": {"dist": "uniform", "lower": 0.3, "upper": 1}}"#;
+        let e = err(twice);
+        assert!(e.contains("duplicate key `f0` at line 2"), "{e}");
     }
 }

@@ -691,3 +691,27 @@ fn root(f: impl Fn(f64) -> f64, t_hi: f64, f0: f64, f1: f64) -> f64 {
     }
     b
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::{ModelSpec, Params};
+
+    /// Issue 37: f0 = 1e100 (a unit error) asked for more steps per sample
+    /// than a cast holds, and the run never ended.
+    #[test]
+    fn a_stiffness_needing_too_many_steps_per_sample_is_refused() {
+        let spec: ModelSpec = "linear".parse().unwrap();
+        let mut p = Params::table_8_1(5).unwrap();
+        p.f0 = 1e100;
+        let system = System::new(&spec, &spec.restrict(&p).unwrap());
+        let Err(e) = Forced::new(&system, 0.01) else {
+            panic!("f0 = 1e100 Hz accepted");
+        };
+        let e = e.to_string();
+        assert!(
+            e.contains("needs more than 100,000 steps per motion sample"),
+            "{e}"
+        );
+    }
+}

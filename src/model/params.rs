@@ -301,3 +301,17 @@ impl Params {
         Ok(out)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Issue 37: the second `u0` was kept without a word.
+    #[test]
+    fn a_parameter_named_twice_is_refused() {
+        let e = Params::map_from_json(r#"{"u0": 0.1, "u0": 0.2}"#)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("duplicate key `u0`"), "{e}");
+    }
+}

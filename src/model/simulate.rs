@@ -889,5 +889,9 @@ mod tests {
             .accel_into(0.005, &mut out, &opts)
             .unwrap_err();
         assert!(matches!(err, SimError::PhaseCap { cap: 10, .. }), "{err}");
+        // Issue 37: the message names the library option, not a flag the
+        // command line does not have.
+        let msg = err.to_string();
+        assert!(msg.contains("may raise `SimOptions::phase_cap`"), "{msg}");
     }
 }

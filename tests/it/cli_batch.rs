@@ -304,3 +304,38 @@ fn a_full_stderr_loses_lines_not_the_run() {
     assert_eq!(o.status.code(), Some(0));
     assert!(d.path().join("o/summary-shard-2-of-2.csv").exists());
 }
+
+/// An item whose sample did not converge is done (its outputs are written
+/// and its summary rows say `converged` false); the study says so on the
+/// item's line and does not fail for it.
+#[test]
+fn an_unconverged_item_is_done_and_said_so() {
+    let d = tempfile::tempdir().unwrap();
+    study_of(d.path(), 1);
+    let text = read(&d.path().join("study.toml")).replace(
+        "map-only = true",
+        "walkers = 16\nmax-steps = 200\nno-design = true",
+    );
+    std::fs::write(d.path().join("study.toml"), text).unwrap();
+    let o = hbis(
+        d.path(),
+        &["batch", "--manifest", "study.toml", "--out", "o"],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains(
+            "item 1 (record rec00, model bilinear+coulomb+viscous, seed 7): the posterior sample did not converge: "
+        ),
+        "{}",
+        stderr(&o)
+    );
+    let summary = read(&d.path().join("o/summary.csv"));
+    let rows: Vec<&str> = summary.lines().skip(1).collect();
+    assert!(!rows.is_empty(), "{summary}");
+    let header: Vec<&str> = summary.lines().next().unwrap().split(',').collect();
+    let col = header.iter().position(|h| *h == "converged").unwrap();
+    assert!(
+        rows.iter().all(|r| r.split(',').nth(col) == Some("false")),
+        "{summary}"
+    );
+}

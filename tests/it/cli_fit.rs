@@ -82,6 +82,7 @@ fn fit_json_has_the_documented_keys_and_one_seed_gives_one_result() {
             "1180",
             "--static-friction",
             "100",
+            "--allow-unconverged",
         ]
     };
     let one = hbis_with(d.path(), &args("one"), "1");
@@ -347,6 +348,58 @@ fn bad_records_and_priors_exit_2_naming_row_or_field() {
 
 /// `--thin 1` writes every kept step, `--keep-checkpoint` leaves the
 /// checkpoint, `--no-chains` writes no chain file.
+/// A fit whose sample did not converge writes everything, says why on one
+/// line and exits 3; `--allow-unconverged` makes the same run exit 0.
+#[test]
+fn an_unconverged_fit_exits_3_after_writing_everything() {
+    let d = tempfile::tempdir().unwrap();
+    record(d.path());
+    let args = |out: &'static str| {
+        vec![
+            "fit",
+            "--data",
+            "rec.csv",
+            "--model",
+            "bilinear+coulomb+viscous",
+            "--seed",
+            "5",
+            "--out",
+            out,
+            "--max-evals",
+            "3000",
+            "--walkers",
+            "16",
+            "--max-steps",
+            "200",
+            "--no-design",
+        ]
+    };
+    let o = hbis_with(d.path(), &args("strict"), "2");
+    assert_eq!(o.status.code(), Some(3), "{}", stderr(&o));
+    let err = stderr(&o);
+    let last = err.lines().last().unwrap();
+    assert!(
+        last.starts_with("hbis: the posterior sample did not converge: ")
+            && last.ends_with("(exit 3; --allow-unconverged exits 0)"),
+        "{err}"
+    );
+    let fit = |out: &str| {
+        let text = std::fs::read_to_string(d.path().join(out).join("fit.json")).unwrap();
+        serde_json::from_str::<serde_json::Value>(&text).unwrap()
+    };
+    let strict = fit("strict");
+    assert_eq!(strict["sampling"]["converged"], false);
+    let reason = strict["sampling"]["not_converged"].as_str().unwrap();
+    assert!(last.contains(reason), "{reason} in {last}");
+    assert!(d.path().join("strict/manifest.json").exists());
+    let mut allowed = args("allowed");
+    allowed.push("--allow-unconverged");
+    let o = hbis_with(d.path(), &allowed, "2");
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(!stderr(&o).contains("did not converge"), "{}", stderr(&o));
+    assert_eq!(fit("allowed")["sampling"]["converged"], false);
+}
+
 #[test]
 fn thin_no_chains_and_keep_checkpoint_do_what_they_say() {
     let d = tempfile::tempdir().unwrap();
@@ -369,6 +422,7 @@ fn thin_no_chains_and_keep_checkpoint_do_what_they_say() {
             "--max-steps",
             "200",
             "--no-design",
+            "--allow-unconverged",
         ];
         args.extend_from_slice(extra);
         let o = hbis_with(d.path(), &args, "2");
@@ -421,6 +475,7 @@ fn killed_and_resumed_runs_end_as_an_uninterrupted_run() {
             "4000",
             "--tau-multiple",
             "1000",
+            "--allow-unconverged",
         ]
     };
     let whole = hbis_with(d.path(), &args("whole"), "2");

@@ -216,6 +216,7 @@ fn a_map_only_run_into_an_old_folder_leaves_no_chains_of_the_old_run() {
             "12",
             "--max-steps",
             "200",
+            "--allow-unconverged",
         ],
     );
     assert!(full.status.success(), "{}", stderr(&full));
