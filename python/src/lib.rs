@@ -28,6 +28,7 @@ use hbis::data::record::check_size;
 use hbis::data::{limits, synthesize as synth, Aligned, Record};
 use hbis::inference::ensemble::Moves;
 use hbis::inference::map::MapSettings;
+use hbis::inference::pointwise::pointwise_log_likelihood;
 use hbis::inference::sample::{Progress, SampleSettings};
 use hbis::inference::{Noise, Posterior};
 use hbis::model::response::grid_len;
@@ -629,6 +630,9 @@ struct FitResult {
     draws: Option<Array3<f64>>,
     log_prob: Option<Array3<f64>>,
     physical: Option<Array3<f64>>,
+    /// The fit's posterior (model, record as fitted, noise model), for the
+    /// pointwise log-likelihood of its draws.
+    posterior: Posterior<Model>,
 }
 
 #[pymethods]
@@ -651,6 +655,65 @@ impl FitResult {
     fn physical<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyArray3<f64>>> {
         self.physical.clone().map(|d| d.into_pyarray(py))
     }
+
+    /// The record as fitted (release placed, polarity applied), m/s^2.
+    #[getter]
+    fn observed<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        self.posterior.data().a.clone().into_pyarray(py)
+    }
+
+    /// The pointwise log-likelihood of every kept draw, `(chain, draw,
+    /// sample)`, for `az.loo` (`hbis::inference::pointwise`: `sigma` drawn
+    /// from its conditional posterior per draw, from `seed`); `None` for a
+    /// MAP-only fit.
+    fn log_likelihood<'py>(
+        &self,
+        py: Python<'py>,
+        #[pyo3(from_py_with = seed_arg)] seed: u64,
+    ) -> PyResult<Option<Bound<'py, PyArray3<f64>>>> {
+        let Some(draws) = &self.draws else {
+            return Ok(None);
+        };
+        let (chains, per, _) = draws.dim();
+        let n = self.posterior.data().a.len();
+        limits::pointwise(chains * per, n).map_err(err)?;
+        let draws = draws.clone();
+        let posterior = self.posterior.clone();
+        let out = interruptible(py, &Run::default(), move || {
+            pointwise_array(&posterior, &draws, seed).map_err(err)
+        })?;
+        Ok(Some(out.into_pyarray(py)))
+    }
+}
+
+/// [`FitResult::log_likelihood`]'s array: each draw's `sigma` from a seed
+/// of its own, drawn in order from `seed`, so the result does not depend
+/// on the number of threads.
+fn pointwise_array(
+    posterior: &Posterior<Model>,
+    draws: &Array3<f64>,
+    seed: u64,
+) -> Result<Array3<f64>, hbis::model::SimError> {
+    use rand::RngExt;
+    use rayon::prelude::*;
+    let (chains, per, _) = draws.dim();
+    let n = posterior.data().a.len();
+    let mut rng = StdRng::seed_from_u64(seed);
+    let seeds: Vec<u64> = (0..chains * per).map(|_| rng.random()).collect();
+    let mut out = Array3::<f64>::zeros((chains, per, n));
+    let slice = out.as_slice_mut().expect("a new array is contiguous");
+    slice
+        .par_chunks_mut(n)
+        .zip(seeds)
+        .enumerate()
+        .try_for_each(|(k, (row, s))| {
+            let theta: Vec<f64> = draws
+                .slice(numpy::ndarray::s![k / per, k % per, ..])
+                .to_vec();
+            let mut rng = StdRng::seed_from_u64(s);
+            pointwise_log_likelihood(posterior, &theta, &mut rng, row).map(|_| ())
+        })?;
+    Ok(out)
 }
 
 /// Kept steps `burn, burn + thin, ...` of every ensemble, walker-major
@@ -830,6 +893,7 @@ fn fit(
             (None, None, None)
         };
         Ok(FitResult {
+            posterior: fitted.posterior.clone(),
             names: fitted.names().to_vec(),
             report_json,
             thin: every,

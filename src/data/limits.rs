@@ -57,6 +57,16 @@ pub enum LimitError {
         /// Bytes the chains would keep.
         bytes: f64,
     },
+    /// A pointwise log-likelihood array that would not fit in memory.
+    #[error("{draws} draws x {samples} samples would make a {:.1} GiB pointwise log-likelihood, more than the limit of {:.0} GiB: thin the draws (fit's `thin`)", bytes / GIB, MAX_CHAIN_BYTES / GIB)]
+    Pointwise {
+        /// Kept draws.
+        draws: usize,
+        /// Samples of the record.
+        samples: usize,
+        /// Bytes the array would take.
+        bytes: f64,
+    },
 }
 
 const GIB: f64 = 1024.0 * 1024.0 * 1024.0;
@@ -99,6 +109,20 @@ pub fn sampler(
     Ok(())
 }
 
+/// Refuses a pointwise log-likelihood (one term per draw and sample) of
+/// more than [`MAX_CHAIN_BYTES`].
+pub fn pointwise(draws: usize, samples: usize) -> Result<(), LimitError> {
+    let bytes = draws as f64 * samples as f64 * 8.0;
+    if bytes > MAX_CHAIN_BYTES {
+        return Err(LimitError::Pointwise {
+            draws,
+            samples,
+            bytes,
+        });
+    }
+    Ok(())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -108,6 +132,8 @@ mod tests {
         assert!(grid(1.0, MAX_GRID_SAMPLES - 1.0).is_ok());
         assert!(grid(1.0, MAX_GRID_SAMPLES).is_err());
         assert!(sampler(9, 18, 1, 1).is_ok());
+        assert!(pointwise(1 << 20, 1024).is_ok());
+        assert!(pointwise(1 << 20, 1025).is_err());
         assert!(sampler(9, 17, 1, 1).is_err());
         // 8 GiB exactly: 2^30 / (10 * 8) ... one more step goes over.
         let steps = (MAX_CHAIN_BYTES / (20.0 * 10.0 * 8.0)) as usize;

@@ -13,6 +13,7 @@ pub mod laplace;
 pub mod likelihood;
 pub mod map;
 pub mod pipeline;
+pub mod pointwise;
 pub mod polish;
 pub mod posterior;
 pub mod priors;
