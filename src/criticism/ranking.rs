@@ -10,7 +10,7 @@
 //! - a **multi-start refit** (CMA-ES + polish): from the current MAP with
 //!   the effect off (so the fit can only improve), and from spread starts
 //!   with the new parameters at a quarter and three quarters of their range
-//!   (mid-range only on the numerical engine, which costs some 14 to 27
+//!   (mid-range only on the numerical engine, which costs some 16 to 30
 //!   times the closed form; a start where the effect does nothing moves to
 //!   where it acts); the best is kept and the report says how many starts
 //!   reached it. It gives `e2`, the change of the maximised
@@ -550,7 +550,7 @@ pub fn rank_candidates(
     data.model_accel_into(current, theta_now, &mut model_now)?;
     let nuisance = jacobian(current, theta_now, &model_now, data);
     let mut rng = StdRng::seed_from_u64(seed);
-    // The numerical engine costs some 14 to 27 times the closed form: its
+    // The numerical engine costs some 16 to 30 times the closed form: its
     // refits get a smaller budget (the warm start is already close).
     let numeric_budget = settings
         .clone()
@@ -598,7 +598,7 @@ pub fn rank_candidates(
             &numeric_budget
         };
         let score = score_test(&c.model, &c.start, &new, data, &nuisance);
-        // The numerical engine costs some 14 to 27 times the closed form: one
+        // The numerical engine costs some 16 to 30 times the closed form: one
         // spread start (mid-range) instead of two.
         let spread: &[f64] = if c.model.closed_form() {
             &[0.25, 0.75]
