@@ -29,6 +29,7 @@ that :func:`ground_motion` and :func:`read_motion` return, or ``ag, dt``.
 # (`__all__`) and nothing else.
 import json as _json
 import typing as _t
+import warnings as _warnings
 
 import numpy as _np
 
@@ -400,6 +401,9 @@ def fit(
     name, as the binary's ``--effects``; :meth:`Fit.predict` uses them too.
     ``source``: the record's name in the report (``data.source``; default:
     the file a :class:`Record` was read from, else ``"array"``).
+
+    A posterior sample that did not converge is returned, with a
+    :class:`NotConvergedWarning` saying why (``hbis fit`` exits 3 then).
     """
     t, a, t0, named = _arrays(record)
     effects = _effects(effects)
@@ -426,7 +430,22 @@ def fit(
         effects=effects,
         source=named if source is None else str(source),
     )
-    return Fit(raw, int(seed), effects)
+    result = Fit(raw, int(seed), effects)
+    if result.converged is False:
+        _warnings.warn(
+            "the posterior sample did not converge: "
+            + result.report["sampling"]["not_converged"],
+            NotConvergedWarning,
+            stacklevel=2,
+        )
+    return result
+
+
+class NotConvergedWarning(UserWarning):
+    """Warned by :func:`fit` when its posterior sample did not converge
+    (``Fit.converged`` is ``False``; the message gives
+    ``report["sampling"]["not_converged"]``): the draws are probably not
+    yet the posterior. ``hbis fit`` exits with status 3 in that case."""
 
 
 def diagnose(
@@ -664,6 +683,7 @@ __all__ = [
     "PHYSICAL",
     "PHYSICAL_UNITS",
     "Fit",
+    "NotConvergedWarning",
     "Prediction",
     "Record",
     "Synthetic",

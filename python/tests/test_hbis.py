@@ -179,6 +179,22 @@ def test_to_arviz_carries_the_pointwise_log_likelihood_and_loo_ranks_models(reco
     assert cmp.loc["nested", "elpd_diff"] > 4 * cmp.loc["nested", "dse"]
 
 
+def test_an_unconverged_fit_warns_why_and_a_converged_one_does_not(record, fitted):
+    """As `hbis fit` exits 3, `hbis.fit` warns when its sample did not
+    converge, with the report's reason."""
+    import warnings
+
+    with pytest.warns(hbis.NotConvergedWarning, match="^the posterior sample did not converge: ") as w:
+        short = hbis.fit(record, "bilinear+coulomb+viscous", seed=4, walkers=16, max_steps=200,
+                         max_evals=3000)
+    assert short.converged is False
+    assert short.report["sampling"]["not_converged"] in str(w[0].message)
+    assert fitted.converged
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", hbis.NotConvergedWarning)
+        hbis.fit(record, "bilinear+coulomb+viscous", seed=4, max_evals=3000, map_only=True)
+
+
 def test_progress_is_reported_and_the_gil_released(record):
     calls = []
     ticks = []
@@ -437,6 +453,9 @@ def test_every_public_name_has_a_docstring(record):
         for member in dir(obj):
             if member.startswith("_"):
                 continue
+            owner = next(c for c in obj.__mro__ if member in vars(c))
+            if owner.__module__ == "builtins":
+                continue  # e.g. a warning's `args`, documented by Python
             raw = inspect.getattr_static(obj, member)
             if isinstance(raw, (classmethod, staticmethod)):
                 raw = raw.__func__
