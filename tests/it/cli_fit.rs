@@ -348,33 +348,36 @@ fn bad_records_and_priors_exit_2_naming_row_or_field() {
 
 /// `--thin 1` writes every kept step, `--keep-checkpoint` leaves the
 /// checkpoint, `--no-chains` writes no chain file.
+/// A fit of `rec.csv` into `out` too short to converge (200 steps of 16
+/// walkers after a 3,000-evaluation MAP).
+fn short_fit(out: &str) -> Vec<&str> {
+    vec![
+        "fit",
+        "--data",
+        "rec.csv",
+        "--model",
+        "bilinear+coulomb+viscous",
+        "--seed",
+        "5",
+        "--out",
+        out,
+        "--max-evals",
+        "3000",
+        "--walkers",
+        "16",
+        "--max-steps",
+        "200",
+        "--no-design",
+    ]
+}
+
 /// A fit whose sample did not converge writes everything, says why on one
 /// line and exits 3; `--allow-unconverged` makes the same run exit 0.
 #[test]
 fn an_unconverged_fit_exits_3_after_writing_everything() {
     let d = tempfile::tempdir().unwrap();
     record(d.path());
-    let args = |out: &'static str| {
-        vec![
-            "fit",
-            "--data",
-            "rec.csv",
-            "--model",
-            "bilinear+coulomb+viscous",
-            "--seed",
-            "5",
-            "--out",
-            out,
-            "--max-evals",
-            "3000",
-            "--walkers",
-            "16",
-            "--max-steps",
-            "200",
-            "--no-design",
-        ]
-    };
-    let o = hbis_with(d.path(), &args("strict"), "2");
+    let o = hbis_with(d.path(), &short_fit("strict"), "2");
     assert_eq!(o.status.code(), Some(3), "{}", stderr(&o));
     let err = stderr(&o);
     let last = err.lines().last().unwrap();
@@ -392,7 +395,7 @@ fn an_unconverged_fit_exits_3_after_writing_everything() {
     let reason = strict["sampling"]["not_converged"].as_str().unwrap();
     assert!(last.contains(reason), "{reason} in {last}");
     assert!(d.path().join("strict/manifest.json").exists());
-    let mut allowed = args("allowed");
+    let mut allowed = short_fit("allowed");
     allowed.push("--allow-unconverged");
     let o = hbis_with(d.path(), &allowed, "2");
     assert!(o.status.success(), "{}", stderr(&o));
@@ -405,25 +408,8 @@ fn thin_no_chains_and_keep_checkpoint_do_what_they_say() {
     let d = tempfile::tempdir().unwrap();
     record(d.path());
     let run = |out: &'static str, extra: &[&'static str]| {
-        let mut args = vec![
-            "fit",
-            "--data",
-            "rec.csv",
-            "--model",
-            "bilinear+coulomb+viscous",
-            "--seed",
-            "5",
-            "--out",
-            out,
-            "--max-evals",
-            "3000",
-            "--walkers",
-            "16",
-            "--max-steps",
-            "200",
-            "--no-design",
-            "--allow-unconverged",
-        ];
+        let mut args = short_fit(out);
+        args.push("--allow-unconverged");
         args.extend_from_slice(extra);
         let o = hbis_with(d.path(), &args, "2");
         assert!(o.status.success(), "{}", stderr(&o));
