@@ -782,3 +782,45 @@ def test_a_strided_array_is_read_as_it_is_seen():
     assert not a2.flags["C_CONTIGUOUS"]
     aligned = hbis._hbis.align(t2, a2)
     np.testing.assert_array_equal(aligned[1], rec.aligned_a)
+
+
+def test_seeded_random_records_at_the_boundary_are_aligned_or_refused_naming_the_place():
+    """A property test at the binding's array boundary (seeded, numpy's
+    generator; no extra dependency): records of random length, with one
+    sample of `t` or `a` made non-finite or huge, a column cut short, or
+    time reversed, either align or raise a one-line ValueError; a single
+    non-finite sample is refused naming its row (header = row 1) and its
+    column, as the binary names a file's."""
+    seed = 20261128
+    print(f"seed {seed}")
+    rng = np.random.default_rng(seed)
+    specials = [np.nan, np.inf, -np.inf]
+    refused = 0
+    for case in range(300):
+        n = int(rng.integers(0, 400))
+        t = np.arange(n) * 0.005
+        a = -np.exp(-0.5 * t) * np.cos(2 * np.pi * 0.5 * t) + rng.normal(0, 0.01, n)
+        kind = int(rng.integers(0, 6))
+        where = int(rng.integers(0, n)) if n else 0
+        column = None
+        if kind == 1 and n:
+            column, value = ("t", "a")[int(rng.integers(0, 2))], specials[int(rng.integers(0, 3))]
+            (t if column == "t" else a)[where] = value
+        elif kind == 2 and n:
+            a[where] = 1e300
+        elif kind == 3:
+            a = a[: max(0, n - 1 - int(rng.integers(0, 3)))]
+        elif kind == 4:
+            t = t[::-1].copy()
+        try:
+            hbis._hbis.align(t, a)
+        except ValueError as e:
+            refused += 1
+            msg = str(e)
+            assert msg and "\n" not in msg, f"case {case}: {msg!r}"
+            if column is not None:
+                assert msg.startswith(f"row {where + 2}, column `{column}`: value "), f"case {case}: {msg}"
+        else:
+            assert column is None, f"case {case}: a non-finite `{column}` at row {where + 2} was accepted"
+    # Both outcomes occur: the cases are not all refused for one reason.
+    assert 0 < refused < 300, refused
