@@ -1404,6 +1404,28 @@ pub fn peak_displacement_figure(
     )
 }
 
+/// The histogram's x axis (mm) and whether the capacity is on it: the
+/// capacity joins the axis only when the draws would still span at least
+/// a quarter of it; a capacity far from a narrow distribution would
+/// otherwise squeeze the histogram into a sliver.
+fn peaks_axis(
+    mm: &[f64],
+    data: std::ops::Range<f64>,
+    capacity_mm: Option<f64>,
+) -> (std::ops::Range<f64>, bool) {
+    match capacity_mm {
+        Some(c) => {
+            let with = range(mm.iter().copied().chain([c]));
+            if (data.end - data.start) >= 0.25 * (with.end - with.start) {
+                (with, true)
+            } else {
+                (data, false)
+            }
+        }
+        None => (data, false),
+    }
+}
+
 fn draw_peaks<DB: DrawingBackend>(
     root: DrawingArea<DB, Shift>,
     peaks: &[f64],
@@ -1423,9 +1445,10 @@ fn draw_peaks<DB: DrawingBackend>(
     };
     let root = root.titled(&title, (FONT, 24)).map_err(e)?;
     let mm: Vec<f64> = peaks.iter().map(|p| 1e3 * p).collect();
-    // Bins over the draws only; the axis also reaches the capacity.
+    // Bins over the draws only; the axis also reaches the capacity when
+    // that leaves the histogram room.
     let data = range(mm.iter().copied());
-    let xr = range(mm.iter().copied().chain(capacity.map(|c| 1e3 * c)));
+    let (xr, on_axis) = peaks_axis(&mm, data.clone(), capacity.map(|c| 1e3 * c));
     let bins = ((mm.len() as f64).sqrt().ceil() as usize).clamp(5, 60);
     let width = (data.end - data.start) / bins as f64;
     let mut counts = vec![0usize; bins];
@@ -1457,7 +1480,21 @@ fn draw_peaks<DB: DrawingBackend>(
             Rectangle::new([(x0, 0.0), (x0 + width, *c as f64)], blue.mix(0.6).filled())
         }))
         .map_err(e)?;
-    if let Some(c) = capacity {
+    if let Some(c) = capacity.filter(|_| !on_axis) {
+        // Off the axis: named in the legend, with its side.
+        let side = if 1e3 * c > data.end { "right" } else { "left" };
+        let red = RGBColor(214, 39, 40);
+        chart
+            .draw_series(std::iter::empty::<Rectangle<(f64, f64)>>())
+            .map_err(e)?
+            .label(format!(
+                "capacity {:.0} mm: off the axis, to the {side}",
+                1e3 * c
+            ))
+            .legend(move |(x, y)| PathElement::new([(x, y), (x + 20, y)], red.stroke_width(3)));
+        legend(&mut chart)?;
+    }
+    if let Some(c) = capacity.filter(|_| on_axis) {
         let red = RGBColor(214, 39, 40);
         chart
             .draw_series(DashedLineSeries::new(
@@ -1477,6 +1514,21 @@ fn draw_peaks<DB: DrawingBackend>(
 #[cfg(test)]
 mod layout_tests {
     use super::*;
+
+    /// The demo's case: peaks 195-197 mm against a 300 mm capacity keep
+    /// their own axis; a capacity among or near the draws joins it.
+    #[test]
+    fn a_far_capacity_does_not_squeeze_the_peak_histogram() {
+        let mm = [195.0, 196.0, 197.0];
+        let data = range(mm.iter().copied());
+        let (axis, on) = peaks_axis(&mm, data.clone(), Some(300.0));
+        assert!(!on && axis == data, "{axis:?}");
+        let (axis, on) = peaks_axis(&mm, data.clone(), Some(196.5));
+        assert!(on && axis.start < 195.0 && axis.end > 197.0, "{axis:?}");
+        let (axis, on) = peaks_axis(&mm, data.clone(), Some(198.0));
+        assert!(on && axis.end > 198.0, "{axis:?}");
+        assert_eq!(peaks_axis(&mm, data.clone(), None), (data, false));
+    }
 
     /// A text's box in the SVG, from its anchor, size and rotation, taking
     /// a glyph as 0.6 em wide (DejaVu Sans' digits are 0.64, its lowercase
