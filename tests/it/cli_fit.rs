@@ -346,8 +346,6 @@ fn bad_records_and_priors_exit_2_naming_row_or_field() {
     assert!(stderr(&o).contains("--thin 0"), "{}", stderr(&o));
 }
 
-/// `--thin 1` writes every kept step, `--keep-checkpoint` leaves the
-/// checkpoint, `--no-chains` writes no chain file.
 /// A fit of `rec.csv` into `out` too short to converge (200 steps of 16
 /// walkers after a 3,000-evaluation MAP).
 fn short_fit(out: &str) -> Vec<&str> {
@@ -403,6 +401,8 @@ fn an_unconverged_fit_exits_3_after_writing_everything() {
     assert_eq!(fit("allowed")["sampling"]["converged"], false);
 }
 
+/// `--thin 1` writes every kept step, `--keep-checkpoint` leaves the
+/// checkpoint, `--no-chains` writes no chain file.
 #[test]
 fn thin_no_chains_and_keep_checkpoint_do_what_they_say() {
     let d = tempfile::tempdir().unwrap();
