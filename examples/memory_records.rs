@@ -19,25 +19,10 @@ use hbis::inference::{MapSettings, Noise};
 use hbis::model::{ForwardModel, Model, Registry};
 use rand::{rngs::StdRng, RngExt, SeedableRng};
 use rayon::prelude::*;
-use statrs::distribution::{Beta, ContinuousCDF};
 
 /// Clopper-Pearson 95 % interval of `k` successes in `n`.
 fn clopper_pearson(k: usize, n: usize) -> (f64, f64) {
-    let lo = if k == 0 {
-        0.0
-    } else {
-        Beta::new(k as f64, (n - k + 1) as f64)
-            .unwrap()
-            .inverse_cdf(0.025)
-    };
-    let hi = if k == n {
-        1.0
-    } else {
-        Beta::new((k + 1) as f64, (n - k) as f64)
-            .unwrap()
-            .inverse_cdf(0.975)
-    };
-    (lo, hi)
+    hbis::inference::proportion::clopper_pearson(k as f64, n as f64, 0.95)
 }
 
 struct Outcome {

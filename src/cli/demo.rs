@@ -260,8 +260,9 @@ fn earthquake(out: &mut impl Write, dir: &mut OutDir) -> Result<()> {
         fit: Some(fit_dir.clone()),
         fit_seed: Some(fit.seed),
         params: None,
-        motion,
+        motions: vec![motion],
         scale: 1.0,
+        fragility_pgas: Vec::new(),
         seed: SEED,
         opts: hbis::predict::PredictOptions {
             tail: 20.0,
@@ -278,8 +279,8 @@ fn earthquake(out: &mut impl Write, dir: &mut OutDir) -> Result<()> {
     dir.set_prefix("predict");
     let (p, _) = hbis::study::prediction::write_prediction(dir, &job)?;
     dir.set_prefix("");
-    super::predict::print_summary(out, &p, job.draws.len(), &job.motion)?;
-    for w in &p.warnings {
+    super::predict::print_summary(out, &p, &job)?;
+    for w in &p.prediction.warnings {
         writeln!(out, "  note: {w}")?;
     }
     writeln!(

@@ -7,9 +7,9 @@ use anyhow::{bail, Context, Result};
 use hbis::data::ground_motion::{GroundMotion, KanaiTajimi};
 use hbis::data::validation::AccelUnits;
 use hbis::model::{ForwardModel, Model};
-use hbis::predict::{Draw, FitDraws, PredictOptions, Prediction, Stats};
+use hbis::predict::{Draw, FitDraws, PredictOptions, Stats, G};
 use hbis::report::outdir::{InputEntry, OutDir};
-use hbis::study::prediction::{write_prediction, PredictJob};
+use hbis::study::prediction::{write_prediction, PredictJob, PredictOutcome};
 
 use super::inputs;
 
@@ -30,10 +30,17 @@ pub struct Args {
     /// or CSV; uniformly sampled).
     #[arg(
         long,
-        conflicts_with = "synthetic",
-        required_unless_present = "synthetic"
+        conflicts_with_all = ["synthetic", "motions"],
+        required_unless_present_any = ["synthetic", "motions"]
     )]
     motion: Option<PathBuf>,
+    /// A suite of ground motions: `N` seeded synthetic Kanai-Tajimi motions
+    /// (as --synthetic, seeds derived from --seed), or a folder of `.AT2`
+    /// files (a folder named by digits: write `./20`). The draws are paired
+    /// with the motions, so the summary carries the record-to-record
+    /// variability.
+    #[arg(long, value_name = "N|DIR", conflicts_with = "synthetic")]
+    motions: Option<String>,
     /// Unit of the motion's acceleration: `g`, `m/s2` or `mm/s2`. An
     /// `.AT2` file states its own (g); a two-column file needs this.
     #[arg(long)]
@@ -45,9 +52,18 @@ pub struct Args {
     /// at 100 Hz) of seed --seed, scaled to --pga.
     #[arg(long)]
     synthetic: bool,
-    /// Peak ground acceleration of the synthetic motion (m/s^2).
-    #[arg(long, default_value_t = 0.3 * 9.80665, requires = "synthetic")]
-    pga: f64,
+    /// Peak ground acceleration (m/s^2, or in g with a `g` suffix: `0.3g`)
+    /// of the synthetic motions (default 0.3g), or that a folder's motions
+    /// are scaled to. A list (`0.1g,0.2g,0.3g,0.4g`) scales the motions to
+    /// each level for a fragility curve of --capacity; the summary and
+    /// figures are at the first level.
+    #[arg(
+        long,
+        value_delimiter = ',',
+        value_name = "LIST",
+        allow_hyphen_values = true
+    )]
+    pga: Vec<String>,
     /// Seed of the synthetic motion (the draws are taken evenly through the
     /// chains, without randomness).
     #[arg(long, default_value_t = 1)]
@@ -76,7 +92,8 @@ pub struct Args {
 
 pub fn run(a: Args) -> Result<()> {
     check(&a)?;
-    let motion = motion(&a)?;
+    let levels = pga_levels(&a)?;
+    let motions = motions(&a, levels.first().copied())?;
     let (model, draws, fit_seed) = draws(&a)?;
     let job = PredictJob {
         model,
@@ -84,8 +101,9 @@ pub fn run(a: Args) -> Result<()> {
         fit: a.fit.clone(),
         fit_seed,
         params: a.params.clone(),
-        motion,
+        motions,
         scale: a.scale,
+        fragility_pgas: if levels.len() > 1 { levels } else { Vec::new() },
         seed: a.seed,
         opts: PredictOptions {
             tail: a.tail,
@@ -109,17 +127,22 @@ pub fn run(a: Args) -> Result<()> {
     let (p, json) = write_prediction(&mut dir, &job)?;
     let record = a.motion.as_deref().map(InputEntry::of).transpose()?;
     dir.finish("predict", a.seed, &job.model.name(), record)?;
-    for w in &p.warnings {
+    for w in &p.prediction.warnings {
         say!("warning: {w}");
     }
     if a.json {
         return super::print_stdout(&json);
     }
     let mut out = std::io::stdout().lock();
-    print_summary(&mut out, &p, job.draws.len(), &job.motion)?;
+    print_summary(&mut out, &p, &job)?;
+    let fragility = if p.fragility.is_some() {
+        ", fragility.png"
+    } else {
+        ""
+    };
     writeln!(
         out,
-        "wrote {} and draws.csv, band.csv, response.png, peak-displacement.png beside it",
+        "wrote {} and draws.csv, band.csv, response.png, peak-displacement.png{fragility} beside it",
         a.out.join("predict.json").display()
     )?;
     Ok(())
@@ -136,19 +159,76 @@ fn check(a: &Args) -> Result<()> {
     if let Some(m) = a.mass {
         hbis::predict::positive("--mass", m)?;
     }
-    if a.synthetic {
-        hbis::predict::positive("--pga", a.pga)?;
-    }
     if a.draws == 0 {
         bail!("--draws 0: expected at least one draw");
     }
     if !a.scale.is_finite() || a.scale == 0.0 {
         bail!("--scale {}: expected a finite, nonzero factor", a.scale);
     }
+    if !a.pga.is_empty() && a.motion.is_some() {
+        bail!("--pga scales --synthetic or --motions; scale a --motion file with --scale");
+    }
+    if a.pga.len() > 1 && a.capacity.is_none() {
+        bail!(
+            "--pga {}: several levels draw a fragility curve of the capacity: give --capacity (m)",
+            a.pga.join(",")
+        );
+    }
     Ok(())
 }
 
-fn motion(a: &Args) -> Result<GroundMotion> {
+/// Most motions of a synthetic suite.
+const MAX_SUITE: usize = 10_000;
+
+/// The --pga levels in m/s^2, each checked.
+fn pga_levels(a: &Args) -> Result<Vec<f64>> {
+    a.pga.iter().map(|s| parse_pga(s)).collect()
+}
+
+/// A PGA in m/s^2 from `2.94` or `0.3g`.
+fn parse_pga(s: &str) -> Result<f64> {
+    let t = s.trim();
+    let (num, factor) = match t.strip_suffix(['g', 'G']) {
+        Some(n) => (n, hbis::predict::G),
+        None => (t, 1.0),
+    };
+    let v = num
+        .trim()
+        .parse::<f64>()
+        .ok()
+        .map(|v| v * factor)
+        .filter(|v| v.is_finite() && *v > 0.0);
+    match v {
+        Some(v) => Ok(v),
+        None => {
+            bail!("--pga `{s}`: expected an acceleration > 0 in m/s^2 (`2.94`) or in g (`0.3g`)")
+        }
+    }
+}
+
+/// What --motions names.
+enum Suite<'a> {
+    Synthetic(usize),
+    Folder(&'a Path),
+}
+
+fn suite(spec: &str) -> Result<Suite<'_>> {
+    if !spec.is_empty() && spec.bytes().all(|b| b.is_ascii_digit()) {
+        let n: usize = spec.parse().unwrap_or(usize::MAX);
+        if n == 0 || n > MAX_SUITE {
+            bail!("--motions {spec}: expected 1 to {MAX_SUITE} synthetic motions, or a folder of .AT2 files");
+        }
+        return Ok(Suite::Synthetic(n));
+    }
+    let dir = Path::new(spec);
+    if !dir.is_dir() {
+        bail!("--motions {spec}: not a number of motions, nor a folder of .AT2 files");
+    }
+    Ok(Suite::Folder(dir))
+}
+
+/// The motions at the summary's level `pga` (m/s^2; `None`: as given).
+fn motions(a: &Args, pga: Option<f64>) -> Result<Vec<GroundMotion>> {
     let units = a
         .motion_units
         .as_deref()
@@ -157,32 +237,45 @@ fn motion(a: &Args) -> Result<GroundMotion> {
                 .with_context(|| format!("--motion-units `{u}`"))
         })
         .transpose()?;
-    let m = match &a.motion {
-        Some(path) => {
-            let at2 = path
-                .extension()
-                .is_some_and(|e| e.eq_ignore_ascii_case("at2"));
-            if at2 {
-                GroundMotion::read_at2(path, units)?
-            } else {
-                let Some(units) = units else {
-                    bail!(
-                        "--motion {}: state the unit of a two-column motion with --motion-units g, m/s2 or mm/s2",
-                        path.display()
-                    );
-                };
-                GroundMotion::read_columns(path, units)?
-            }
-        }
-        None => {
-            let kt = KanaiTajimi {
-                pga: a.pga,
-                ..KanaiTajimi::default()
-            };
-            kt.generate(a.seed)?
-        }
+    let kt = KanaiTajimi {
+        pga: pga.unwrap_or(0.3 * hbis::predict::G),
+        ..KanaiTajimi::default()
     };
-    Ok(m.scaled(a.scale)?)
+    let ms = match (&a.motion, &a.motions) {
+        (Some(path), _) => vec![motion_file(path, units)?],
+        (None, Some(spec)) => match suite(spec)? {
+            Suite::Synthetic(n) => kt.suite(n, a.seed)?,
+            Suite::Folder(dir) => {
+                let ms = GroundMotion::read_at2_dir(dir, units)
+                    .with_context(|| format!("--motions {spec}"))?;
+                match pga {
+                    Some(g) => ms
+                        .into_iter()
+                        .map(|m| m.scaled_to_pga(g))
+                        .collect::<Result<_, _>>()?,
+                    None => ms,
+                }
+            }
+        },
+        (None, None) => vec![kt.generate(a.seed)?],
+    };
+    ms.into_iter().map(|m| Ok(m.scaled(a.scale)?)).collect()
+}
+
+fn motion_file(path: &Path, units: Option<AccelUnits>) -> Result<GroundMotion> {
+    let at2 = path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("at2"));
+    if at2 {
+        return Ok(GroundMotion::read_at2(path, units)?);
+    }
+    let Some(units) = units else {
+        bail!(
+            "--motion {}: state the unit of a two-column motion with --motion-units g, m/s2 or mm/s2",
+            path.display()
+        );
+    };
+    Ok(GroundMotion::read_columns(path, units)?)
 }
 
 /// The model and the parameter sets to simulate.
@@ -217,17 +310,36 @@ fn draws(a: &Args) -> Result<(Model, Vec<Draw>, Option<u64>)> {
 
 pub(super) fn print_summary(
     out: &mut impl Write,
-    p: &Prediction,
-    n: usize,
-    m: &GroundMotion,
+    outcome: &PredictOutcome,
+    job: &PredictJob,
 ) -> Result<()> {
-    writeln!(
-        out,
-        "Response to {} (PGA {:.3} g), {n} parameter set{}, each from rest:",
-        m.source,
-        m.pga() / 9.80665,
-        if n == 1 { "" } else { "s" }
-    )?;
+    let p = &outcome.prediction;
+    let n = job.draws.len();
+    let sets = format!("{n} parameter set{}", if n == 1 { "" } else { "s" });
+    match job.motions.as_slice() {
+        [m] => writeln!(
+            out,
+            "Response to {} (PGA {:.3} g), {sets}, each from rest:",
+            m.source,
+            m.pga() / G
+        )?,
+        ms => {
+            let pgas = ms.iter().map(|m| m.pga() / G);
+            let lo = pgas.clone().fold(f64::INFINITY, f64::min);
+            let hi = pgas.fold(0.0, f64::max);
+            let level = if (hi - lo) <= 1e-9 * hi {
+                format!("PGA {hi:.3} g")
+            } else {
+                format!("PGA {lo:.3}-{hi:.3} g")
+            };
+            writeln!(
+                out,
+                "Response to {} ground motions ({level}), {sets}, {} pairs each from rest:",
+                ms.len(),
+                p.pairs.len()
+            )?
+        }
+    }
     writeln!(
         out,
         "  {:28} {:>11} {:>11} {:>11} {:>11} {:>11}",
@@ -262,8 +374,36 @@ pub(super) fn print_summary(
         &s.peak_total_acceleration,
         1.0,
     )?;
-    if let Some(q) = p.p_exceed_capacity {
-        writeln!(out, "  P(peak displacement > capacity) = {q:.4}")?;
+    if let Some(c) = &p.exceedance {
+        writeln!(
+            out,
+            "  P(peak displacement > capacity) = {:.4} (95 % interval {:.4}-{:.4})",
+            c.p, c.low, c.high
+        )?;
+    }
+    if let (Some(f), Some(cap)) = (&outcome.fragility, job.opts.capacity) {
+        writeln!(
+            out,
+            "Fragility of the {:.0} mm capacity ({} motions scaled to each PGA):",
+            1e3 * cap,
+            job.motions.len()
+        )?;
+        writeln!(
+            out,
+            "  {:>8} {:>10} {:>17} {:>20}",
+            "PGA (g)", "P(exceed)", "95 % interval", "peak u q50 (mm)"
+        )?;
+        for x in f {
+            writeln!(
+                out,
+                "  {:>8.3} {:>10.4} {:>8.4}-{:<8.4} {:>20.1}",
+                x.pga_g,
+                x.p_exceed,
+                x.ci_low,
+                x.ci_high,
+                1e3 * x.peak_displacement.q50
+            )?;
+        }
     }
     Ok(())
 }

@@ -156,6 +156,46 @@ impl GroundMotion {
         Ok(self)
     }
 
+    /// Scaled to the peak ground acceleration `pga` (m/s^2), as a suite is
+    /// scaled to each level of a fragility curve.
+    pub fn scaled_to_pga(self, pga: f64) -> Result<Self, MotionError> {
+        if !(pga.is_finite() && pga > 0.0) {
+            return Err(MotionError::Invalid(format!(
+                "PGA {pga}: expected a finite acceleration > 0 (m/s^2)"
+            )));
+        }
+        let now = self.pga();
+        if now.is_nan() || now <= 0.0 {
+            return Err(MotionError::Invalid(format!(
+                "{}: the motion is zero throughout, it cannot be scaled to a PGA",
+                self.source
+            )));
+        }
+        self.scaled(pga / now)
+    }
+
+    /// Every `.AT2` file in `dir` (not its subfolders), in the order of
+    /// their names; `units` as in [`GroundMotion::read_at2`].
+    pub fn read_at2_dir(dir: &Path, units: Option<AccelUnits>) -> Result<Vec<Self>, MotionError> {
+        let entries = std::fs::read_dir(dir).map_err(|source| MotionError::Io {
+            path: dir.display().to_string(),
+            source,
+        })?;
+        let mut paths: Vec<std::path::PathBuf> = entries
+            .flatten()
+            .map(|e| e.path())
+            .filter(|p| p.is_file() && p.extension().is_some_and(|e| e.eq_ignore_ascii_case("at2")))
+            .collect();
+        paths.sort();
+        if paths.is_empty() {
+            return Err(MotionError::Invalid(format!(
+                "{}: no .AT2 file in this folder",
+                dir.display()
+            )));
+        }
+        paths.iter().map(|p| Self::read_at2(p, units)).collect()
+    }
+
     /// Reads a PEER NGA `.AT2` file. `units` overrides the unit the header
     /// names (`G` in every PEER file); `None` takes the header's.
     pub fn read_at2(path: &Path, units: Option<AccelUnits>) -> Result<Self, MotionError> {
@@ -522,6 +562,33 @@ impl KanaiTajimi {
                 self.f_g, self.zeta_g, self.pga, self.duration, self.dt
             ),
         })
+    }
+}
+
+/// The seed of motion `j` (0-based) of the suite of seed `seed`: nearby
+/// seeds give unrelated suites (splitmix64 of both), so suites of seeds 1
+/// and 2 share no motion.
+///
+/// ```
+/// use hbis::data::ground_motion::suite_seed;
+/// assert_ne!(suite_seed(1, 1), suite_seed(2, 0));
+/// assert_eq!(suite_seed(7, 3), suite_seed(7, 3));
+/// ```
+pub fn suite_seed(seed: u64, j: usize) -> u64 {
+    fn mix(mut z: u64) -> u64 {
+        z = z.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    }
+    mix(mix(seed) ^ j as u64)
+}
+
+impl KanaiTajimi {
+    /// `n` motions of this generator, motion `j` of seed
+    /// [`suite_seed`]`(seed, j)`: a suite for record-to-record variability.
+    pub fn suite(&self, n: usize, seed: u64) -> Result<Vec<GroundMotion>, MotionError> {
+        (0..n).map(|j| self.generate(suite_seed(seed, j))).collect()
     }
 }
 

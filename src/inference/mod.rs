@@ -17,6 +17,7 @@ pub mod pointwise;
 pub mod polish;
 pub mod posterior;
 pub mod priors;
+pub mod proportion;
 pub mod release;
 pub mod sample;
 pub mod summary;

@@ -1264,47 +1264,90 @@ fn legend<'a, DB: DrawingBackend + 'a, CT: CoordTranslate>(
         .map_err(|x| x.to_string())
 }
 
-/// The posterior predictive displacement under a ground motion: the 5-95 %
-/// band and the median over time (top), the ground acceleration (bottom).
-pub fn response_band_figure(
-    path: &Path,
-    band: &crate::inference::summary::Band,
-    motion: (f64, &[f64]),
-    capacity: Option<f64>,
-) -> Result<(), FigureError> {
+/// What [`response_band_figure`] draws.
+#[derive(Debug, Clone, Copy)]
+pub struct ResponseFigure<'a> {
+    /// The displacement band over the pairs.
+    pub band: &'a crate::inference::summary::Band,
+    /// The ground motions `(dt, ag)`.
+    pub motions: &'a [(f64, &'a [f64])],
+    /// Displacement capacity (m).
+    pub capacity: Option<f64>,
+    /// The release displacement `u0` the test identified (m; median over
+    /// the draws): beyond it the laws are extrapolated.
+    pub release: Option<f64>,
+    /// Share of pairs whose peak went beyond their `u0`.
+    pub share_beyond_release: f64,
+    /// Posterior draws simulated.
+    pub draws: usize,
+}
+
+/// The posterior predictive displacement under the ground motions: the
+/// 5-95 % band over the pairs and the median over time, the release
+/// displacement beyond which the laws are extrapolated and the capacity
+/// (top); the ground accelerations (bottom).
+pub fn response_band_figure(path: &Path, fig: &ResponseFigure) -> Result<(), FigureError> {
     let ext = checked_extension(path)?;
-    render!(path, &ext, (1400, 900), draw_band(band, motion, capacity))
+    render!(path, &ext, (1400, 900), draw_band(fig))
+}
+
+/// The axis of `data` with the levels `±extra` on it when the data would
+/// still span at least a quarter of it (else the levels are left off, and
+/// the legend says so): a far level would squeeze the data into a sliver.
+fn axis_with(data: std::ops::Range<f64>, extra: &[f64]) -> (std::ops::Range<f64>, Vec<bool>) {
+    let mut axis = data.clone();
+    let mut on = vec![false; extra.len()];
+    let mut order: Vec<usize> = (0..extra.len()).collect();
+    order.sort_by(|&a, &b| extra[a].abs().total_cmp(&extra[b].abs()));
+    for k in order {
+        let x = extra[k].abs();
+        let with = range([axis.start, axis.end, x, -x].into_iter());
+        if (data.end - data.start) >= 0.25 * (with.end - with.start) {
+            axis = with;
+            on[k] = true;
+        }
+    }
+    (axis, on)
 }
 
 fn draw_band<DB: DrawingBackend>(
     root: DrawingArea<DB, Shift>,
-    band: &crate::inference::summary::Band,
-    (dt, ag): (f64, &[f64]),
-    capacity: Option<f64>,
+    fig: &ResponseFigure,
 ) -> Result<(), String> {
     let e = |x: DrawingAreaErrorKind<DB::ErrorType>| x.to_string();
+    let band = fig.band;
+    let n_motions = fig.motions.len();
     root.fill(&WHITE).map_err(e)?;
-    let root = root
-        .titled(
-            "Posterior predictive response to the ground motion",
-            (FONT, 26),
+    let title = if n_motions == 1 {
+        format!(
+            "Response of {} posterior draws to one ground motion (posterior uncertainty only)",
+            fig.draws
         )
-        .map_err(e)?;
+    } else {
+        format!(
+            "Response of {} posterior draws paired with {n_motions} ground motions",
+            fig.draws
+        )
+    };
+    let root = root.titled(&title, (FONT, 24)).map_err(e)?;
     let (top, bottom) = root.split_vertically(root.dim_in_pixel().1 * 2 / 3);
-    let t1 = band.t.last().copied().unwrap_or(1.0).max(dt);
-    let cap = capacity.into_iter().flat_map(|c| [c, -c]);
-    let ys = range(
-        band.q05
-            .iter()
-            .chain(&band.q95)
-            .map(|v| 1e3 * v)
-            .chain(cap.map(|c| 1e3 * c)),
-    );
+    let t1 = band
+        .t
+        .last()
+        .copied()
+        .unwrap_or(1.0)
+        .max(fig.motions.iter().map(|m| m.0).fold(0.0, f64::max));
+    let data = range(band.q05.iter().chain(&band.q95).map(|v| 1e3 * v));
+    let levels: Vec<f64> = [fig.release, fig.capacity]
+        .iter()
+        .map(|x| x.map_or(f64::NAN, |v| 1e3 * v))
+        .collect();
+    let (ys, on) = axis_with(data, &levels);
     let mut chart = ChartBuilder::on(&top)
         .margin(20)
         .x_label_area_size(40)
         .y_label_area_size(90)
-        .build_cartesian_2d(0.0..t1, ys)
+        .build_cartesian_2d(0.0..t1, ys.clone())
         .map_err(e)?;
     chart
         .configure_mesh()
@@ -1315,54 +1358,115 @@ fn draw_band<DB: DrawingBackend>(
         .axis_desc_style((FONT, 16))
         .draw()
         .map_err(e)?;
+    let orange = RGBColor(255, 127, 14);
+    if let Some(u0) = fig.release {
+        let u0 = 1e3 * u0;
+        let label = format!(
+            "beyond the release u0 = {u0:.0} mm: extrapolated ({:.0} % of the {} went there){}",
+            100.0 * fig.share_beyond_release,
+            if n_motions == 1 { "draws" } else { "pairs" },
+            if on[0] { "" } else { "; off the axis" }
+        );
+        // Shaded beyond +-u0 where the axis reaches there.
+        let shade: Vec<Rectangle<(f64, f64)>> = [(u0, ys.end), (ys.start, -u0)]
+            .into_iter()
+            .filter(|(lo, hi)| hi > lo)
+            .map(|(lo, hi)| Rectangle::new([(0.0, lo), (t1, hi)], orange.mix(0.12).filled()))
+            .collect();
+        chart
+            .draw_series(shade)
+            .map_err(e)?
+            .label(label)
+            .legend(move |(x, y)| {
+                Rectangle::new([(x, y - 5), (x + 20, y + 5)], orange.mix(0.3).filled())
+            });
+    }
     let blue = RGBColor(31, 119, 180);
-    let upper: Vec<(f64, f64)> = band
-        .t
-        .iter()
-        .zip(&band.q95)
-        .map(|(t, v)| (*t, 1e3 * v))
-        .collect();
-    let lower: Vec<(f64, f64)> = band
-        .t
-        .iter()
-        .zip(&band.q05)
-        .map(|(t, v)| (*t, 1e3 * v))
-        .rev()
-        .collect();
+    let pts = |q: &[f64]| -> Vec<(f64, f64)> {
+        band.t.iter().zip(q).map(|(t, v)| (*t, 1e3 * v)).collect()
+    };
+    let (upper, lower) = (pts(&band.q95), pts(&band.q05));
+    let spread = if n_motions == 1 {
+        "5-95 % over the draws"
+    } else {
+        "5-95 % over draws and motions"
+    };
     chart
         .draw_series(std::iter::once(Polygon::new(
-            upper.iter().chain(&lower).copied().collect::<Vec<_>>(),
-            blue.mix(0.25).filled(),
+            upper
+                .iter()
+                .chain(lower.iter().rev())
+                .copied()
+                .collect::<Vec<_>>(),
+            blue.mix(0.3).filled(),
         )))
         .map_err(e)?
-        .label("5-95 % of the draws")
+        .label(spread)
         .legend(move |(x, y)| {
-            Rectangle::new([(x, y - 5), (x + 20, y + 5)], blue.mix(0.25).filled())
+            Rectangle::new([(x, y - 5), (x + 20, y + 5)], blue.mix(0.3).filled())
         });
+    // The band's edges drawn too: a narrow band stays visible under the
+    // median.
+    for edge in [upper, lower] {
+        chart
+            .draw_series(LineSeries::new(edge, blue.mix(0.7).stroke_width(1)))
+            .map_err(e)?;
+    }
+    let navy = RGBColor(8, 48, 107);
     chart
-        .draw_series(LineSeries::new(
-            band.t.iter().zip(&band.q50).map(|(t, v)| (*t, 1e3 * v)),
-            blue.stroke_width(2),
-        ))
+        .draw_series(LineSeries::new(pts(&band.q50), navy.stroke_width(1)))
         .map_err(e)?
         .label("median")
-        .legend(move |(x, y)| PathElement::new([(x, y), (x + 20, y)], blue.stroke_width(2)));
-    if let Some(c) = capacity {
+        .legend(move |(x, y)| PathElement::new([(x, y), (x + 20, y)], navy.stroke_width(2)));
+    if let Some(c) = fig.capacity {
         let red = RGBColor(214, 39, 40);
-        for s in [1.0, -1.0] {
-            chart
-                .draw_series(DashedLineSeries::new(
-                    [(0.0, s * 1e3 * c), (t1, s * 1e3 * c)],
-                    10,
-                    6,
-                    red.stroke_width(2),
-                ))
-                .map_err(e)?;
-        }
+        let c = 1e3 * c;
+        let lines: Vec<plotters::element::DashedPathElement<_, _>> = if on[1] {
+            [c, -c]
+                .into_iter()
+                .map(|y| {
+                    plotters::element::DashedPathElement::new(
+                        vec![(0.0, y), (t1, y)],
+                        10,
+                        6,
+                        red.stroke_width(2),
+                    )
+                })
+                .collect()
+        } else {
+            Vec::new()
+        };
+        chart
+            .draw_series(lines)
+            .map_err(e)?
+            .label(if on[1] {
+                format!("capacity ±{c:.0} mm")
+            } else {
+                format!("capacity ±{c:.0} mm: off the axis")
+            })
+            .legend(move |(x, y)| PathElement::new([(x, y), (x + 20, y)], red.stroke_width(2)));
     }
     legend(&mut chart)?;
-    let ys = range(ag.iter().copied());
-    let mut chart = ChartBuilder::on(&bottom)
+    draw_motions(&bottom, fig.motions, t1)?;
+    root.present().map_err(e)
+}
+
+/// The ground accelerations, at most 20 of a suite (faint when several).
+fn draw_motions<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    motions: &[(f64, &[f64])],
+    t1: f64,
+) -> Result<(), String> {
+    let e = |x: DrawingAreaErrorKind<DB::ErrorType>| x.to_string();
+    const SHOWN: usize = 20;
+    let shown = &motions[..motions.len().min(SHOWN)];
+    let ys = range(shown.iter().flat_map(|m| m.1.iter().copied()));
+    let desc = match motions.len() {
+        1 => "ground acceleration (m/s^2)".to_string(),
+        n if n <= SHOWN => format!("ground accel., {n} motions (m/s^2)"),
+        n => format!("ground accel., {SHOWN} of {n} motions (m/s^2)"),
+    };
+    let mut chart = ChartBuilder::on(area)
         .margin(20)
         .x_label_area_size(40)
         .y_label_area_size(90)
@@ -1371,18 +1475,122 @@ fn draw_band<DB: DrawingBackend>(
     chart
         .configure_mesh()
         .x_desc("time (s)")
-        .y_desc("ground acceleration (m/s^2)")
+        .y_desc(desc)
         .x_label_formatter(&tick)
         .y_label_formatter(&tick)
         .label_style((FONT, 14))
         .axis_desc_style((FONT, 16))
         .draw()
         .map_err(e)?;
+    let grey = RGBColor(90, 90, 90);
+    let alpha = if shown.len() == 1 { 1.0 } else { 0.25 };
+    for &(dt, ag) in shown {
+        chart
+            .draw_series(LineSeries::new(
+                ag.iter().enumerate().map(|(i, a)| (i as f64 * dt, *a)),
+                grey.mix(alpha).stroke_width(1),
+            ))
+            .map_err(e)?;
+    }
+    Ok(())
+}
+
+/// The fragility curve: the probability that the peak displacement
+/// exceeds the capacity against the peak ground acceleration, with the
+/// 95 % interval at each level.
+pub fn fragility_figure(
+    path: &Path,
+    points: &[crate::predict::FragilityPoint],
+    capacity: f64,
+    motions: usize,
+) -> Result<(), FigureError> {
+    let ext = checked_extension(path)?;
+    render!(
+        path,
+        &ext,
+        (1200, 800),
+        draw_fragility(points, capacity, motions)
+    )
+}
+
+fn draw_fragility<DB: DrawingBackend>(
+    root: DrawingArea<DB, Shift>,
+    points: &[crate::predict::FragilityPoint],
+    capacity: f64,
+    motions: usize,
+) -> Result<(), String> {
+    let e = |x: DrawingAreaErrorKind<DB::ErrorType>| x.to_string();
+    root.fill(&WHITE).map_err(e)?;
+    let pairs = points.first().map_or(0, |p| p.pairs);
+    let title = format!(
+        "Fragility: P(peak displacement > {:.0} mm), {motions} motion{} x posterior, {pairs} pairs per level",
+        1e3 * capacity,
+        if motions == 1 { "" } else { "s" }
+    );
+    let root = root.titled(&title, (FONT, 22)).map_err(e)?;
+    let xs = range(points.iter().map(|p| p.pga_g).chain([0.0]));
+    let mut chart = ChartBuilder::on(&root)
+        .margin(20)
+        .x_label_area_size(50)
+        .y_label_area_size(80)
+        .build_cartesian_2d(xs.start.max(0.0)..xs.end, 0.0..1.0)
+        .map_err(e)?;
+    chart
+        .configure_mesh()
+        .x_desc("peak ground acceleration (g)")
+        .y_desc("probability of exceeding the capacity (-)")
+        .x_label_formatter(&tick)
+        .y_label_formatter(&tick)
+        .label_style((FONT, 14))
+        .axis_desc_style((FONT, 16))
+        .draw()
+        .map_err(e)?;
+    let blue = RGBColor(31, 119, 180);
+    // Caps at both ends of each interval, 16 px wide whatever the axis.
+    let cap = move |x: f64, y: f64| {
+        EmptyElement::at((x, y)) + PathElement::new([(-8, 0), (8, 0)], blue.stroke_width(2))
+    };
+    chart
+        .draw_series(
+            points
+                .iter()
+                .flat_map(|p| [cap(p.pga_g, p.ci_low), cap(p.pga_g, p.ci_high)]),
+        )
+        .map_err(e)?;
+    chart
+        .draw_series(points.iter().map(|p| {
+            PathElement::new(
+                [(p.pga_g, p.ci_low), (p.pga_g, p.ci_high)],
+                blue.stroke_width(2),
+            )
+        }))
+        .map_err(e)?
+        .label("95 % interval (motions as clusters)")
+        .legend(move |(x, y)| {
+            PathElement::new([(x + 10, y - 6), (x + 10, y + 6)], blue.stroke_width(2))
+        });
     chart
         .draw_series(LineSeries::new(
-            ag.iter().enumerate().map(|(i, a)| (i as f64 * dt, *a)),
-            RGBColor(90, 90, 90).stroke_width(1),
+            points.iter().map(|p| (p.pga_g, p.p_exceed)),
+            blue.stroke_width(2),
         ))
+        .map_err(e)?
+        .label("share of pairs beyond the capacity")
+        .legend(move |(x, y)| PathElement::new([(x, y), (x + 20, y)], blue.stroke_width(2)));
+    chart
+        .draw_series(
+            points
+                .iter()
+                .map(|p| Circle::new((p.pga_g, p.p_exceed), 5, blue.filled())),
+        )
+        .map_err(e)?;
+    chart
+        .configure_series_labels()
+        .label_font((FONT, 14))
+        .background_style(WHITE.mix(0.8))
+        .border_style(BLACK)
+        .position(SeriesLabelPosition::UpperLeft)
+        .draw()
         .map_err(e)?;
     root.present().map_err(e)
 }

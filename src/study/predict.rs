@@ -33,6 +33,8 @@ use serde::Serialize;
 use thiserror::Error;
 
 use crate::cancel::{Cancel, Cancelled};
+use crate::data::ground_motion::GroundMotion;
+use crate::inference::proportion::{self, Clustered};
 use crate::inference::summary::{quantile, ParamSummary};
 use crate::model::forced::{Excitation, ForcedSink, Peaks};
 use crate::model::{ForwardModel, Model, Registry, SimError};
@@ -183,27 +185,28 @@ pub struct Summary {
     pub peak_base_shear_kn: Option<Stats>,
 }
 
-/// How far the draws went beyond what the release test identified.
+/// How far the draws went beyond what the release test identified (shares
+/// of the draw-motion pairs; of the draws for one motion).
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Extrapolation {
-    /// Share of draws whose peak displacement exceeds their release
+    /// Share of pairs whose peak displacement exceeds their release
     /// displacement `u0` (the largest amplitude the record showed).
     pub share_beyond_release: f64,
-    /// Largest ratio of peak displacement to `u0` over the draws.
+    /// Largest ratio of peak displacement to `u0` over the pairs.
     pub max_ratio_to_release: f64,
     /// Median of that ratio.
     pub median_ratio_to_release: f64,
-    /// Share of draws whose response entered an envelope branch (plastic
+    /// Share of pairs whose response entered an envelope branch (plastic
     /// phase) deeper than any their release test reached (its free
     /// vibration from `u0`, simulated for each draw).
     pub share_new_branch: f64,
-    /// The deepest envelope branch any draw entered (0 elastic, 1-3 the
+    /// The deepest envelope branch any pair entered (0 elastic, 1-3 the
     /// paper's plastic phases).
     pub deepest_branch: u8,
-    /// Share of draws whose friction amplitude `F_F0 + k_F |u|` fell to
+    /// Share of pairs whose friction amplitude `F_F0 + k_F |u|` fell to
     /// zero (floored there).
     pub share_friction_floored: f64,
-    /// Share of draws still moving at the end of the tail (last speed above
+    /// Share of pairs still moving at the end of the tail (last speed above
     /// 1e-3 of their peak speed).
     pub share_still_moving: f64,
 }
@@ -222,12 +225,17 @@ pub use crate::inference::summary::Band;
 /// A posterior predictive run.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Prediction {
-    /// The summaries.
+    /// The summaries, over the pairs.
     pub summary: Summary,
-    /// Share of draws whose peak displacement exceeds the capacity.
+    /// Share of pairs whose peak displacement exceeds the capacity.
     pub p_exceed_capacity: Option<f64>,
-    /// Per draw, in the order given.
+    /// That share with its 95 % interval, the motions taken as clusters.
+    pub exceedance: Option<Clustered>,
+    /// Per pair, in the order of `pairs`.
     pub outcomes: Vec<DrawOutcome>,
+    /// The draw and motion of each outcome ([`pairs`]); with one motion,
+    /// the draws in the order given.
+    pub pairs: Vec<Pair>,
     /// Beyond the identified range.
     pub extrapolation: Extrapolation,
     /// Sentences backed by the numbers above, for the reader.
@@ -236,19 +244,42 @@ pub struct Prediction {
     pub band: Option<Band>,
 }
 
-/// Records `u` every `every` samples into a row of the band.
+/// Records `u` into the band's row: the first sample at or after each
+/// grid time `j every dt_ref` (the motions of a suite may have their own
+/// steps).
 struct Decimated<'a> {
-    every: usize,
+    /// Grid bins per sample, `dt / (every dt_ref)`.
+    per_sample: f64,
+    last: Option<usize>,
     row: &'a mut [f64],
 }
 
 impl ForcedSink for Decimated<'_> {
     #[inline]
     fn sample(&mut self, i: usize, u: f64, _: f64, _: f64) {
-        if i % self.every == 0 {
-            if let Some(x) = self.row.get_mut(i / self.every) {
+        if self.row.is_empty() {
+            return;
+        }
+        // The nudge keeps `i = j every` in bin j despite rounding.
+        let j = (i as f64 * self.per_sample + 1e-9).floor() as usize;
+        if self.last != Some(j) {
+            self.last = Some(j);
+            if let Some(x) = self.row.get_mut(j) {
                 *x = u;
             }
+        }
+    }
+}
+
+/// Carries each value forward over the bins no sample reached (a coarser
+/// motion's, or a shorter motion's after it came to rest).
+fn fill_forward(row: &mut [f64]) {
+    let mut last = 0.0;
+    for x in row {
+        if x.is_nan() {
+            *x = last;
+        } else {
+            last = *x;
         }
     }
 }
@@ -298,7 +329,7 @@ pub fn positive(name: &str, v: f64) -> Result<(), PredictError> {
 
 /// Simulates every draw under the ground acceleration `ag` (m/s^2, step
 /// `dt`) from rest and summarises, in parallel (the result does not depend
-/// on the number of threads).
+/// on the number of threads). [`predict_suite`] with one motion.
 pub fn predict(
     model: &Model,
     draws: &[Draw],
@@ -306,42 +337,95 @@ pub fn predict(
     ag: &[f64],
     opts: &PredictOptions,
 ) -> Result<Prediction, PredictError> {
-    if draws.is_empty() {
-        return Err(PredictError::Invalid("no draws to simulate".into()));
+    predict_suite(model, draws, &[(dt, ag)], opts)
+}
+
+/// One simulated pair: a draw under a motion.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+pub struct Pair {
+    /// Index of the draw.
+    pub draw: usize,
+    /// Index of the motion.
+    pub motion: usize,
+}
+
+/// The pairs simulated for `draws` draws and `motions` motions: as many as
+/// the larger of the two, pair `k` taking draw `k mod draws` and motion
+/// `k mod motions`, so every draw and every motion is used and each motion
+/// meets draws from all through the chains.
+///
+/// ```
+/// use hbis::predict::{pairs, Pair};
+/// let p = pairs(5, 2);
+/// assert_eq!(p.len(), 5);
+/// assert_eq!(p[3], Pair { draw: 3, motion: 1 });
+/// assert_eq!(pairs(2, 3)[2], Pair { draw: 0, motion: 2 });
+/// ```
+pub fn pairs(draws: usize, motions: usize) -> Vec<Pair> {
+    if draws == 0 || motions == 0 {
+        return Vec::new();
     }
-    if let Some(c) = opts.capacity {
-        positive("capacity", c)?;
-    }
-    for (i, d) in draws.iter().enumerate() {
-        if let Some(m) = d.mass {
-            positive(&format!("draw {i}: mass"), m)?;
-        }
-    }
-    let ex = Excitation::new(dt, ag, opts.tail)
-        .map_err(|e| PredictError::Invalid(format!("the ground motion: {e}")))?;
-    // Every `every`-th sample of each draw's displacement, for the band.
-    let (every, width) = match opts.band_points {
-        0 => (1, 0),
-        p => {
-            let every = ex.len().div_ceil(p).max(1);
-            (every, ex.len().div_ceil(every))
-        }
-    };
-    let mut rows = vec![0.0; width * draws.len()];
-    let mut chunks: Vec<&mut [f64]> = rows.chunks_mut(width.max(1)).collect();
-    chunks.resize_with(draws.len(), Default::default);
-    let results: Vec<Result<(DrawOutcome, bool), PredictError>> = draws
+    (0..draws.max(motions))
+        .map(|k| Pair {
+            draw: k % draws,
+            motion: k % motions,
+        })
+        .collect()
+}
+
+/// The posterior predictive response over a suite of ground motions
+/// `(dt, ag)`: the draws paired with the motions ([`pairs`]), each pair
+/// simulated from rest, and the design quantities summarised over the
+/// pairs, so they carry both the posterior's uncertainty and the
+/// record-to-record variability. The band's time grid is the longest
+/// motion's; a shorter motion's response is held at its last value.
+pub fn predict_suite(
+    model: &Model,
+    draws: &[Draw],
+    motions: &[(f64, &[f64])],
+    opts: &PredictOptions,
+) -> Result<Prediction, PredictError> {
+    check_inputs(draws, motions, opts)?;
+    let ex: Vec<Excitation> = motions
+        .iter()
+        .enumerate()
+        .map(|(j, &(dt, ag))| {
+            Excitation::new(dt, ag, opts.tail).map_err(|e| {
+                let which = match motions.len() {
+                    1 => String::new(),
+                    _ => format!(" {}", j + 1),
+                };
+                PredictError::Invalid(format!("the ground motion{which}: {e}"))
+            })
+        })
+        .collect::<Result<_, _>>()?;
+    let pairs = pairs(draws.len(), motions.len());
+    let grid = BandGrid::of(&ex, opts.band_points);
+    let mut rows = vec![f64::NAN; grid.width * pairs.len()];
+    let mut chunks: Vec<&mut [f64]> = rows.chunks_mut(grid.width.max(1)).collect();
+    chunks.resize_with(pairs.len(), Default::default);
+    let results: Vec<Result<(DrawOutcome, bool), PredictError>> = pairs
         .par_iter()
         .zip(chunks)
-        .enumerate()
-        .map(|(i, (d, row))| {
+        .map(|(pair, row)| {
             if let Some(c) = &opts.cancel {
                 c.check()?;
             }
-            let mut sink = (Decimated { every, row }, Speeds::default());
-            let peaks = model
-                .forced(&d.theta, &ex, &mut sink)
-                .map_err(|source| PredictError::Draw { draw: i, source })?;
+            let (d, e) = (&draws[pair.draw], &ex[pair.motion]);
+            let band = Decimated {
+                per_sample: e.dt() / grid.step,
+                last: None,
+                row,
+            };
+            let mut sink = (band, Speeds::default());
+            let peaks =
+                model
+                    .forced(&d.theta, e, &mut sink)
+                    .map_err(|source| PredictError::Draw {
+                        draw: pair.draw,
+                        source,
+                    })?;
+            fill_forward(sink.0.row);
             let moving = sink.1.moving();
             Ok((
                 DrawOutcome {
@@ -352,65 +436,209 @@ pub fn predict(
             ))
         })
         .collect();
-    let mut outcomes = Vec::with_capacity(draws.len());
+    let mut outcomes = Vec::with_capacity(pairs.len());
     let mut moving = 0usize;
     for r in results {
         let (o, m) = r?;
         outcomes.push(o);
         moving += usize::from(m);
     }
-    let col = |f: fn(&Peaks) -> f64| outcomes.iter().map(|o| f(&o.peaks)).collect::<Vec<_>>();
-    let peak_u = col(|p| p.peak_displacement);
-    let kn: Option<Vec<f64>> = outcomes.iter().map(|o| o.peak_base_shear_kn).collect();
-    let summary = Summary {
-        peak_displacement: Stats::of(&peak_u),
-        residual_displacement: Stats::of(&col(|p| p.residual_displacement)),
-        peak_base_shear: Stats::of(&col(|p| p.peak_base_shear)),
-        peak_total_acceleration: Stats::of(&col(|p| p.peak_total_acceleration)),
-        peak_base_shear_kn: kn.as_deref().map(Stats::of),
-    };
-    let n = draws.len() as f64;
-    let p_exceed_capacity = opts
+    let summary = summarise(&outcomes);
+    let peak_u: Vec<f64> = outcomes.iter().map(|o| o.peaks.peak_displacement).collect();
+    let exceedance = opts
         .capacity
-        .map(|c| peak_u.iter().filter(|&&u| u > c).count() as f64 / n);
-    let extrapolation = extrapolation(model, draws, &outcomes, moving);
-    let warnings = warnings(&extrapolation, ag);
-    let band = (width > 0).then(|| band(&rows, width, every, dt));
+        .map(|c| exceedance(&pairs, &peak_u, motions.len(), c));
+    let extrapolation = extrapolation(model, draws, &pairs, &outcomes, moving);
+    let pga = motions
+        .iter()
+        .flat_map(|m| m.1)
+        .fold(0.0f64, |m, a| m.max(a.abs()));
+    // With a suite the shares are of (draw, motion) pairs.
+    let of = if motions.len() == 1 {
+        "the draws"
+    } else {
+        "the draw-motion pairs"
+    };
+    let warnings = warnings(&extrapolation, pga, of);
+    let band = (grid.width > 0).then(|| band(&rows, grid.width, grid.step));
     Ok(Prediction {
         summary,
-        p_exceed_capacity,
+        p_exceed_capacity: exceedance.map(|e| e.p),
+        exceedance,
         outcomes,
+        pairs,
         extrapolation,
         warnings,
         band,
     })
 }
 
+fn check_inputs(
+    draws: &[Draw],
+    motions: &[(f64, &[f64])],
+    opts: &PredictOptions,
+) -> Result<(), PredictError> {
+    if draws.is_empty() {
+        return Err(PredictError::Invalid("no draws to simulate".into()));
+    }
+    if motions.is_empty() {
+        return Err(PredictError::Invalid("no ground motion to simulate".into()));
+    }
+    if let Some(c) = opts.capacity {
+        positive("capacity", c)?;
+    }
+    for (i, d) in draws.iter().enumerate() {
+        if let Some(m) = d.mass {
+            positive(&format!("draw {i}: mass"), m)?;
+        }
+    }
+    Ok(())
+}
+
+/// The band's time grid: every `every`-th sample of the longest motion,
+/// about `points` of them (`width` 0: no band).
+struct BandGrid {
+    step: f64,
+    width: usize,
+}
+
+impl BandGrid {
+    fn of(ex: &[Excitation], points: usize) -> Self {
+        let span = |e: &Excitation| (e.len() - 1) as f64 * e.dt();
+        let longest = ex
+            .iter()
+            .max_by(|a, b| span(a).total_cmp(&span(b)))
+            .expect("at least one motion");
+        let every = match points {
+            0 => 1,
+            p => longest.len().div_ceil(p).max(1),
+        };
+        Self {
+            step: every as f64 * longest.dt(),
+            width: match points {
+                0 => 0,
+                _ => longest.len().div_ceil(every),
+            },
+        }
+    }
+}
+
+fn summarise(outcomes: &[DrawOutcome]) -> Summary {
+    let col = |f: fn(&Peaks) -> f64| outcomes.iter().map(|o| f(&o.peaks)).collect::<Vec<_>>();
+    let kn: Option<Vec<f64>> = outcomes.iter().map(|o| o.peak_base_shear_kn).collect();
+    Summary {
+        peak_displacement: Stats::of(&col(|p| p.peak_displacement)),
+        residual_displacement: Stats::of(&col(|p| p.residual_displacement)),
+        peak_base_shear: Stats::of(&col(|p| p.peak_base_shear)),
+        peak_total_acceleration: Stats::of(&col(|p| p.peak_total_acceleration)),
+        peak_base_shear_kn: kn.as_deref().map(Stats::of),
+    }
+}
+
+/// The share of pairs beyond the capacity, with its interval: the pairs of
+/// one motion share it, so the motions are the clusters
+/// ([`proportion::clustered`]).
+fn exceedance(pairs: &[Pair], peak_u: &[f64], motions: usize, capacity: f64) -> Clustered {
+    let mut cl = vec![(0usize, 0usize); motions];
+    for (p, u) in pairs.iter().zip(peak_u) {
+        cl[p.motion].0 += usize::from(*u > capacity);
+        cl[p.motion].1 += 1;
+    }
+    proportion::clustered(&cl, 0.95)
+}
+
+/// One point of a fragility curve (`predict.json`'s `fragility`).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct FragilityPoint {
+    /// The peak ground acceleration every motion was scaled to (g).
+    pub pga_g: f64,
+    /// Share of pairs whose peak displacement exceeds the capacity.
+    pub p_exceed: f64,
+    /// Lower end of its 95 % interval (Korn-Graubard, the motions as
+    /// clusters; [`proportion::clustered`]).
+    pub ci_low: f64,
+    /// Upper end.
+    pub ci_high: f64,
+    /// The effective number of independent pairs behind the interval.
+    pub effective_pairs: f64,
+    /// Pairs simulated.
+    pub pairs: usize,
+    /// The peak displacement over the pairs (m).
+    pub peak_displacement: Stats,
+}
+
+/// Standard gravity (m/s^2), the `g` of `pga_g`.
+pub const G: f64 = 9.80665;
+
+/// The fragility curve of `capacity` (m): at each peak ground
+/// acceleration of `pgas` (m/s^2) every motion is scaled to it and the
+/// pairs simulated as in [`predict_suite`] (without a band).
+pub fn fragility(
+    model: &Model,
+    draws: &[Draw],
+    motions: &[GroundMotion],
+    pgas: &[f64],
+    capacity: f64,
+    opts: &PredictOptions,
+) -> Result<Vec<FragilityPoint>, PredictError> {
+    let opts = PredictOptions {
+        capacity: Some(capacity),
+        band_points: 0,
+        ..opts.clone()
+    };
+    pgas.iter()
+        .map(|&pga| {
+            let scaled: Vec<GroundMotion> = motions
+                .iter()
+                .map(|m| m.clone().scaled_to_pga(pga))
+                .collect::<Result<_, _>>()
+                .map_err(|e| PredictError::Invalid(e.to_string()))?;
+            let suite: Vec<(f64, &[f64])> =
+                scaled.iter().map(|m| (m.dt, m.ag.as_slice())).collect();
+            let p = predict_suite(model, draws, &suite, &opts)?;
+            let e = p.exceedance.expect("a capacity was given");
+            Ok(FragilityPoint {
+                pga_g: pga / G,
+                p_exceed: e.p,
+                ci_low: e.low,
+                ci_high: e.high,
+                effective_pairs: e.effective_n,
+                pairs: p.pairs.len(),
+                peak_displacement: p.summary.peak_displacement,
+            })
+        })
+        .collect()
+}
+
 fn extrapolation(
     model: &Model,
     draws: &[Draw],
+    pairs: &[Pair],
     outcomes: &[DrawOutcome],
     moving: usize,
 ) -> Extrapolation {
-    let n = draws.len() as f64;
+    let n = pairs.len() as f64;
     let u0 = model.param_names().iter().position(|p| p == "u0");
     let mut ratios: Vec<f64> = match u0 {
-        Some(k) => draws
+        Some(k) => pairs
             .iter()
             .zip(outcomes)
-            .map(|(d, o)| o.peaks.peak_displacement / d.theta[k].abs())
+            .map(|(p, o)| o.peaks.peak_displacement / draws[p.draw].theta[k].abs())
             .collect(),
         None => Vec::new(),
     };
     ratios.sort_unstable_by(f64::total_cmp);
     let beyond = ratios.iter().filter(|&&r| r > 1.0).count() as f64;
     let floored = outcomes.iter().filter(|o| o.peaks.friction_floored).count() as f64;
-    let new_branch = draws
+    // Once per draw: a draw meets several motions.
+    let deepest: Vec<Option<u8>> = draws
         .par_iter()
+        .map(|d| release_deepest(model, &d.theta))
+        .collect();
+    let new_branch = pairs
+        .iter()
         .zip(outcomes)
-        .filter(|(d, o)| {
-            release_deepest(model, &d.theta).is_some_and(|r| o.peaks.deepest_branch > r)
-        })
+        .filter(|(p, o)| deepest[p.draw].is_some_and(|r| o.peaks.deepest_branch > r))
         .count() as f64;
     Extrapolation {
         share_beyond_release: beyond / n,
@@ -457,11 +685,11 @@ fn release_deepest(model: &Model, theta: &[f64]) -> Option<u8> {
 }
 
 /// Sentences, each printed only when its number says so.
-fn warnings(x: &Extrapolation, ag: &[f64]) -> Vec<String> {
+fn warnings(x: &Extrapolation, pga: f64, of: &str) -> Vec<String> {
     let mut w = Vec::new();
     if x.share_beyond_release > 0.0 {
         w.push(format!(
-            "{:.1} % of the draws move the isolators beyond their release displacement u0, the largest amplitude \
+            "{:.1} % of {of} move the isolators beyond their release displacement u0, the largest amplitude \
              the release test identified (median peak/u0 {:.2}, largest {:.2}): the spring and friction laws are \
              extrapolated there",
             100.0 * x.share_beyond_release,
@@ -471,7 +699,7 @@ fn warnings(x: &Extrapolation, ag: &[f64]) -> Vec<String> {
     }
     if x.share_new_branch > 0.0 {
         w.push(format!(
-            "{:.1} % of the draws drive the spring onto an envelope branch their release test never reached \
+            "{:.1} % of {of} drive the spring onto an envelope branch their release test never reached \
              (deepest: plastic phase {}): its slope there is the prior's and the other branches' guess, not measured",
             100.0 * x.share_new_branch,
             x.deepest_branch
@@ -479,19 +707,18 @@ fn warnings(x: &Extrapolation, ag: &[f64]) -> Vec<String> {
     }
     if x.share_friction_floored > 0.0 {
         w.push(format!(
-            "{:.1} % of the draws reach displacements where the friction amplitude (uF0 + rF0 |u|) k0 falls to zero \
+            "{:.1} % of {of} reach displacements where the friction amplitude (uF0 + rF0 |u|) k0 falls to zero \
              (rF0 < 0); it is floored at zero there",
             100.0 * x.share_friction_floored
         ));
     }
     if x.share_still_moving > 0.0 {
         w.push(format!(
-            "{:.1} % of the draws are still moving at the end of the tail: the residual displacement is not final \
+            "{:.1} % of {of} are still moving at the end of the tail: the residual displacement is not final \
              (lengthen --tail)",
             100.0 * x.share_still_moving
         ));
     }
-    let pga = ag.iter().fold(0.0f64, |m, a| m.max(a.abs()));
     if pga > 30.0 {
         w.push(format!(
             "the motion's peak ground acceleration is {pga:.3} m/s^2 ({:.2} g): is it in cm/s^2 or mm/s^2 rather than m/s^2?",
@@ -505,7 +732,7 @@ fn warnings(x: &Extrapolation, ag: &[f64]) -> Vec<String> {
     w
 }
 
-fn band(rows: &[f64], width: usize, every: usize, dt: f64) -> Band {
+fn band(rows: &[f64], width: usize, step: f64) -> Band {
     let draws = rows.len() / width;
     let mut b = Band {
         t: Vec::with_capacity(width),
@@ -519,7 +746,7 @@ fn band(rows: &[f64], width: usize, every: usize, dt: f64) -> Band {
             *x = rows[k * width + j];
         }
         column.sort_unstable_by(f64::total_cmp);
-        b.t.push((j * every) as f64 * dt);
+        b.t.push(j as f64 * step);
         b.q05.push(quantile(&column, 0.05));
         b.q50.push(quantile(&column, 0.5));
         b.q95.push(quantile(&column, 0.95));
@@ -808,6 +1035,119 @@ mod tests {
             "capacity NaN: expected a finite number > 0"
         );
         assert!(predict(&model, &draws, 0.01, &ag, &PredictOptions::default()).is_ok());
+    }
+
+    fn suite(n: usize, duration: f64, dt: f64, seed: u64) -> Vec<GroundMotion> {
+        let kt = crate::data::ground_motion::KanaiTajimi {
+            pga: 3.0,
+            duration,
+            dt,
+            ..Default::default()
+        };
+        kt.suite(n, seed).unwrap()
+    }
+
+    fn spread_draws(model: &Model, n: usize) -> Vec<Draw> {
+        let p = Params::table_8_1(5).unwrap();
+        (0..n)
+            .map(|k| {
+                let mut q = p;
+                q.u0 *= 0.9 + 0.2 * k as f64 / n as f64;
+                Draw::new(model.theta_from_params(&q, &[]).unwrap())
+            })
+            .collect()
+    }
+
+    /// Pair k is draw k mod D under motion k mod N, each pair simulated as
+    /// that draw alone under that motion (motions of their own steps and
+    /// lengths); the band's grid spans the longest motion and its tail.
+    #[test]
+    fn a_suite_pairs_draws_with_motions_each_as_if_alone() {
+        let model = Registry::builtin().parse("trilinear+lcfm+viscous").unwrap();
+        let draws = spread_draws(&model, 3);
+        let (a, b) = (&suite(1, 15.0, 0.01, 1)[0], &suite(1, 10.0, 0.005, 2)[0]);
+        let motions = [(a.dt, a.ag.as_slice()), (b.dt, b.ag.as_slice())];
+        let opts = PredictOptions {
+            band_points: 300,
+            ..Default::default()
+        };
+        let s = predict_suite(&model, &draws, &motions, &opts).unwrap();
+        let drawn: Vec<(usize, usize)> = s.pairs.iter().map(|p| (p.draw, p.motion)).collect();
+        assert_eq!(drawn, [(0, 0), (1, 1), (2, 0)]);
+        for (pair, o) in s.pairs.iter().zip(&s.outcomes) {
+            let (dt, ag) = motions[pair.motion];
+            let alone = predict(&model, &[draws[pair.draw].clone()], dt, ag, &opts).unwrap();
+            assert_eq!(alone.outcomes[0], *o, "{pair:?}");
+        }
+        let band = s.band.unwrap();
+        let end = 15.0 + opts.tail;
+        let step = band.t[1] - band.t[0];
+        let last = *band.t.last().unwrap();
+        assert!(last <= end + 1e-9 && last > end - step, "{last} vs {end}");
+        assert!(band.q05.iter().chain(&band.q95).all(|x| x.is_finite()));
+    }
+
+    /// The band keeps the first sample in each bin of its grid and holds
+    /// the last value over bins no sample reached.
+    #[test]
+    fn the_band_grid_takes_each_bins_first_sample_and_holds_the_last() {
+        let fill = |per_sample: f64, n: usize, width: usize| {
+            let mut row = vec![f64::NAN; width];
+            let mut d = Decimated {
+                per_sample,
+                last: None,
+                row: &mut row,
+            };
+            for i in 0..n {
+                d.sample(i, i as f64, 0.0, 0.0);
+            }
+            fill_forward(&mut row);
+            row
+        };
+        // A finer motion (step half the grid's), ending early.
+        assert_eq!(fill(0.5, 7, 6), [0.0, 2.0, 4.0, 6.0, 6.0, 6.0]);
+        // A coarser one (twice the grid's step).
+        assert_eq!(fill(2.0, 3, 6), [0.0, 0.0, 1.0, 1.0, 2.0, 2.0]);
+        // The grid's own motion, every third sample: 1/3 rounds below.
+        assert_eq!(fill(1.0 / 3.0, 10, 4), [0.0, 3.0, 6.0, 9.0]);
+    }
+
+    /// Every motion is scaled to each level and the pairs beyond the
+    /// capacity are counted: checked against the pairs simulated one by
+    /// one, the interval against the motions as clusters.
+    #[test]
+    fn fragility_counts_the_pairs_beyond_the_capacity_at_each_level() {
+        let model = Registry::builtin().parse("bilinear+coulomb").unwrap();
+        let draws = spread_draws(&model, 4);
+        let motions = suite(3, 15.0, 0.01, 11);
+        let pgas = [1.5, 4.0];
+        let capacity = 0.08;
+        let opts = PredictOptions::default();
+        let f = fragility(&model, &draws, &motions, &pgas, capacity, &opts).unwrap();
+        assert_eq!(f.len(), 2);
+        for (point, &pga) in f.iter().zip(&pgas) {
+            let mut cl = vec![(0usize, 0usize); motions.len()];
+            for pair in pairs(draws.len(), motions.len()) {
+                let m = &motions[pair.motion];
+                let ag: Vec<f64> = m.ag.iter().map(|a| a * pga / m.pga()).collect();
+                let ex = Excitation::new(m.dt, &ag, opts.tail).unwrap();
+                let peak = model
+                    .forced(&draws[pair.draw].theta, &ex, &mut ())
+                    .unwrap()
+                    .peak_displacement;
+                cl[pair.motion].0 += usize::from(peak > capacity);
+                cl[pair.motion].1 += 1;
+            }
+            let want = proportion::clustered(&cl, 0.95);
+            assert_eq!(point.pairs, 4);
+            assert!((point.pga_g - pga / G).abs() < 1e-15);
+            assert_eq!(
+                (point.p_exceed, point.ci_low, point.ci_high),
+                (want.p, want.low, want.high),
+                "{point:?}"
+            );
+        }
+        assert!(f[0].p_exceed < f[1].p_exceed, "{f:?}");
     }
 
     #[test]

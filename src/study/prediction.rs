@@ -1,6 +1,7 @@
 //! `predict` end to end: a prediction's job (the model, its draws, the
-//! ground motion), its run and its files (`predict.json`, `draws.csv`,
-//! `band.csv`, `response.png`, `peak-displacement.png`).
+//! ground motions), its run and its files (`predict.json`, `draws.csv`,
+//! `band.csv`, `response.png`, `peak-displacement.png`, and with a
+//! fragility curve `fragility.png`).
 //!
 //! `hbis predict` and the demo write through [`write_prediction`].
 
@@ -10,10 +11,12 @@ use serde::Serialize;
 use thiserror::Error;
 
 use crate::data::ground_motion::GroundMotion;
+use crate::inference::proportion::Clustered;
 use crate::model::{ForwardModel, Model};
 use crate::report::outdir::{OutDir, OutError};
 use crate::study::predict::{
-    predict, Draw, Extrapolation, PredictError, PredictOptions, Prediction, Summary,
+    fragility, predict_suite, Draw, Extrapolation, FragilityPoint, PredictError, PredictOptions,
+    Prediction, Summary,
 };
 
 /// Why a prediction could not be run or written.
@@ -47,18 +50,28 @@ pub struct PredictReport<'a> {
     pub seed: u64,
     /// Where the draws came from.
     pub source: DrawSource,
-    /// The ground motion.
-    pub motion: MotionInfo,
+    /// The ground motion, when there is one.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub motion: Option<MotionInfo>,
+    /// Every ground motion of the suite (one for a single motion).
+    pub motions: Vec<MotionInfo>,
     /// Free vibration simulated after the motion (s).
     pub tail: f64,
     /// Displacement capacity (m), if given.
     pub capacity: Option<f64>,
-    /// Number of draws simulated.
+    /// Number of posterior draws simulated.
     pub draws: usize,
-    /// The design quantities over the draws.
+    /// Number of (draw, motion) pairs simulated.
+    pub pairs: usize,
+    /// The design quantities over the pairs.
     pub summary: &'a Summary,
-    /// Share of draws whose peak displacement exceeds the capacity.
+    /// Share of pairs whose peak displacement exceeds the capacity.
     pub p_exceed_capacity: Option<f64>,
+    /// That share with its 95 % interval (the motions as clusters).
+    pub p_exceed_ci: Option<Clustered>,
+    /// The fragility curve, when asked for.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub fragility: Option<&'a [FragilityPoint]>,
     /// How far the motion takes the isolator beyond the release test.
     pub extrapolation: &'a Extrapolation,
     /// What may make the prediction wrong.
@@ -105,14 +118,69 @@ pub struct PredictJob {
     pub fit_seed: Option<u64>,
     /// The parameter file, for one parameter set.
     pub params: Option<PathBuf>,
-    /// The ground motion.
-    pub motion: GroundMotion,
-    /// The factor the motion was scaled by.
+    /// The ground motions (one, or a suite), each at the level of the
+    /// summary.
+    pub motions: Vec<GroundMotion>,
+    /// The factor the motions were scaled by.
     pub scale: f64,
+    /// Peak ground accelerations (m/s^2) of a fragility curve of the
+    /// capacity (empty: none).
+    pub fragility_pgas: Vec<f64>,
     /// The seed written into predict.json.
     pub seed: u64,
     /// Tail, capacity, band resolution.
     pub opts: PredictOptions,
+}
+
+/// A prediction and its fragility curve.
+#[derive(Debug, Clone)]
+pub struct PredictOutcome {
+    /// The prediction at the motions' own level.
+    pub prediction: Prediction,
+    /// The fragility curve, when asked for.
+    pub fragility: Option<Vec<FragilityPoint>>,
+}
+
+/// Runs `job`: the prediction, and the fragility curve when
+/// `fragility_pgas` is not empty (it needs the capacity).
+pub fn run_prediction(job: &PredictJob) -> Result<PredictOutcome, PredictError> {
+    let suite: Vec<(f64, &[f64])> = job
+        .motions
+        .iter()
+        .map(|m| (m.dt, m.ag.as_slice()))
+        .collect();
+    let prediction = predict_suite(&job.model, &job.draws, &suite, &job.opts)?;
+    let fragility = match (job.fragility_pgas.is_empty(), job.opts.capacity) {
+        (true, _) => None,
+        (false, None) => {
+            return Err(PredictError::Invalid(
+                "a fragility curve needs the capacity".into(),
+            ))
+        }
+        (false, Some(c)) => Some(fragility(
+            &job.model,
+            &job.draws,
+            &job.motions,
+            &job.fragility_pgas,
+            c,
+            &job.opts,
+        )?),
+    };
+    Ok(PredictOutcome {
+        prediction,
+        fragility,
+    })
+}
+
+fn motion_info(m: &GroundMotion, scale: f64) -> MotionInfo {
+    MotionInfo {
+        source: m.source.clone(),
+        dt: m.dt,
+        samples: m.ag.len(),
+        duration: m.duration(),
+        pga: m.pga(),
+        scale,
+    }
 }
 
 /// Runs `job` and writes its outputs into `dir`; returns the prediction
@@ -120,9 +188,15 @@ pub struct PredictJob {
 pub fn write_prediction(
     dir: &mut OutDir,
     job: &PredictJob,
-) -> Result<(Prediction, String), PredictionError> {
-    let (model, draws, motion) = (&job.model, &job.draws, &job.motion);
-    let p = predict(model, draws, motion.dt, &motion.ag, &job.opts)?;
+) -> Result<(PredictOutcome, String), PredictionError> {
+    let (model, draws) = (&job.model, &job.draws);
+    let out = run_prediction(job)?;
+    let p = &out.prediction;
+    let motions: Vec<MotionInfo> = job
+        .motions
+        .iter()
+        .map(|m| motion_info(m, job.scale))
+        .collect();
     let report = PredictReport {
         hbis_version: env!("CARGO_PKG_VERSION"),
         command: "predict",
@@ -133,28 +207,25 @@ pub fn write_prediction(
             params: job.params.as_ref().map(|p| p.display().to_string()),
             fit_seed: job.fit_seed,
         },
-        motion: MotionInfo {
-            source: motion.source.clone(),
-            dt: motion.dt,
-            samples: motion.ag.len(),
-            duration: motion.duration(),
-            pga: motion.pga(),
-            scale: job.scale,
+        motion: match job.motions.as_slice() {
+            [m] => Some(motion_info(m, job.scale)),
+            _ => None,
         },
+        motions,
         tail: job.opts.tail,
         capacity: job.opts.capacity,
         draws: draws.len(),
+        pairs: p.pairs.len(),
         summary: &p.summary,
         p_exceed_capacity: p.p_exceed_capacity,
+        p_exceed_ci: p.exceedance,
+        fragility: out.fragility.as_deref(),
         extrapolation: &p.extrapolation,
         warnings: &p.warnings,
     };
     let json = serde_json::to_string_pretty(&report)? + "\n";
     let capacity = job.opts.capacity;
-    dir.write(
-        "draws.csv",
-        draws_csv(model, draws, &p, capacity).as_bytes(),
-    )?;
+    dir.write("draws.csv", draws_csv(model, draws, p, capacity).as_bytes())?;
     if let Some(b) = &p.band {
         let mut s = String::from("t,q05,q50,q95\n");
         for i in 0..b.t.len() {
@@ -162,26 +233,27 @@ pub fn write_prediction(
         }
         dir.write("band.csv", s.as_bytes())?;
     }
-    figures(dir, &p, motion, capacity)?;
+    figures(dir, job, &out)?;
     dir.write("predict.json", json.as_bytes())?;
-    Ok((p, json))
+    Ok((out, json))
 }
 
 fn draws_csv(model: &Model, draws: &[Draw], p: &Prediction, capacity: Option<f64>) -> String {
     let names = model.param_names();
     let mut s = String::from("draw,chain,row,");
     s += &names.join(",");
-    s += ",m,peak_displacement,residual_displacement,peak_base_shear,peak_total_acceleration,peak_base_shear_kN,exceeds_capacity\n";
+    s += ",m,peak_displacement,residual_displacement,peak_base_shear,peak_total_acceleration,peak_base_shear_kN,exceeds_capacity,motion\n";
     let opt = |x: Option<f64>| x.map(|v| v.to_string()).unwrap_or_default();
-    for (i, (d, o)) in draws.iter().zip(&p.outcomes).enumerate() {
+    for (pair, o) in p.pairs.iter().zip(&p.outcomes) {
+        let d = &draws[pair.draw];
         let (chain, row) = d.origin.map_or((String::new(), String::new()), |(c, r)| {
             (c.to_string(), r.to_string())
         });
         let theta: Vec<String> = d.theta.iter().map(f64::to_string).collect();
         let k = &o.peaks;
         s += &format!(
-            "{},{chain},{row},{},{},{},{},{},{},{},{}\n",
-            i + 1,
+            "{},{chain},{row},{},{},{},{},{},{},{},{},{}\n",
+            pair.draw + 1,
             theta.join(","),
             opt(d.mass),
             k.peak_displacement,
@@ -190,6 +262,7 @@ fn draws_csv(model: &Model, draws: &[Draw], p: &Prediction, capacity: Option<f64
             k.peak_total_acceleration,
             opt(o.peak_base_shear_kn),
             capacity.map_or(String::new(), |c| (k.peak_displacement > c).to_string()),
+            pair.motion + 1,
         );
     }
     s
@@ -198,14 +271,33 @@ fn draws_csv(model: &Model, draws: &[Draw], p: &Prediction, capacity: Option<f64
 #[cfg(feature = "figures")]
 fn figures(
     dir: &mut OutDir,
-    p: &Prediction,
-    motion: &GroundMotion,
-    capacity: Option<f64>,
+    job: &PredictJob,
+    out: &PredictOutcome,
 ) -> Result<(), PredictionError> {
-    use crate::report::figures;
+    use crate::report::figures::{self, ResponseFigure};
+    let p = &out.prediction;
+    let capacity = job.opts.capacity;
     if let Some(b) = &p.band {
+        let motions: Vec<(f64, &[f64])> = job
+            .motions
+            .iter()
+            .map(|m| (m.dt, m.ag.as_slice()))
+            .collect();
+        let u0 = job.model.param_names().iter().position(|n| n == "u0");
+        let u0s: Vec<f64> = u0
+            .map(|k| job.draws.iter().map(|d| d.theta[k].abs()).collect())
+            .unwrap_or_default();
+        let fig = ResponseFigure {
+            band: b,
+            motions: &motions,
+            capacity,
+            release: (!u0s.is_empty())
+                .then(|| crate::inference::summary::ParamSummary::from_draws(&u0s).q50),
+            share_beyond_release: p.extrapolation.share_beyond_release,
+            draws: job.draws.len(),
+        };
         dir.write_with("response.png", |tmp| {
-            figures::response_band_figure(tmp, b, (motion.dt, &motion.ag), capacity)
+            figures::response_band_figure(tmp, &fig)
         })?;
     }
     let peaks: Vec<f64> = p
@@ -216,15 +308,15 @@ fn figures(
     dir.write_with("peak-displacement.png", |tmp| {
         figures::peak_displacement_figure(tmp, &peaks, capacity, p.p_exceed_capacity)
     })?;
+    if let (Some(f), Some(c)) = (&out.fragility, capacity) {
+        dir.write_with("fragility.png", |tmp| {
+            figures::fragility_figure(tmp, f, c, job.motions.len())
+        })?;
+    }
     Ok(())
 }
 
 #[cfg(not(feature = "figures"))]
-fn figures(
-    _: &mut OutDir,
-    _: &Prediction,
-    _: &GroundMotion,
-    _: Option<f64>,
-) -> Result<(), PredictionError> {
+fn figures(_: &mut OutDir, _: &PredictJob, _: &PredictOutcome) -> Result<(), PredictionError> {
     Ok(())
 }

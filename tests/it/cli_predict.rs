@@ -402,3 +402,205 @@ fn a_full_stderr_loses_lines_not_the_run() {
     assert_eq!(o.status.code(), Some(0));
     assert!(d.path().join("p/predict.json").exists());
 }
+
+/// Peak displacement of Test 5 with `u0` under `ag`, computed
+/// independently: the numerical engine (Dormand-Prince at 1e-12).
+fn independent_peak(u0: f64, dt: f64, ag: &[f64], tail: f64) -> f64 {
+    let mut p = Params::table_8_1(5).unwrap();
+    p.u0 = u0;
+    let ex = Excitation::new(dt, ag, tail).unwrap();
+    let system = System::new(&ModelSpec::FULL, &p);
+    NumericSystem::with_terms(system, &[])
+        .forced(&ex, 1e-12, &mut Vec::new())
+        .unwrap()
+        .peak_displacement
+}
+
+/// Issue 38: `--motions N --pga LIST` pairs the draws with N seeded
+/// motions, scales them to each level and reports the fragility of the
+/// capacity; each pair's peak is checked against an independent
+/// integration of the same draw under the same motion, made here from the
+/// library's generator and the documented seeds.
+#[test]
+fn a_fragility_over_a_suite_of_motions_counts_pairs_beyond_the_capacity() {
+    let d = tempfile::tempdir().unwrap();
+    let u0s = [0.10, 0.11, 0.12, 0.13];
+    let mut chain = String::from("lp__,accept_stat__,u0,uy,uF0,rF0,zeta0,f0,f1,f2,u3\n");
+    for u0 in u0s {
+        chain +=
+            &format!("0,0,{u0},0.01167,0.00234,0.00235,0.02256,0.53979,0.41723,0.37477,0.08252\n");
+    }
+    let fit_json = r#"{"model": "trilinear+lcfm+viscous", "seed": 1}"#;
+    finished_fit(&d.path().join("fit"), fit_json, &[&chain]);
+    let kt = hbis::data::ground_motion::KanaiTajimi::default();
+    let motions: Vec<_> = (0..3)
+        .map(|j| {
+            kt.generate(hbis::data::ground_motion::suite_seed(9, j))
+                .unwrap()
+        })
+        .collect();
+    let g = 9.80665;
+    let levels = [0.2 * g, 0.5 * g];
+    // Pair k: draw k mod 4, motion k mod 3.
+    let peaks: Vec<Vec<f64>> = levels
+        .iter()
+        .map(|&pga| {
+            (0..4)
+                .map(|k| {
+                    let m = &motions[k % 3];
+                    let ag: Vec<f64> = m.ag.iter().map(|a| a * pga / m.pga()).collect();
+                    independent_peak(u0s[k], m.dt, &ag, 5.0)
+                })
+                .collect()
+        })
+        .collect();
+    // A capacity among the first level's peaks, clear of each.
+    let mut sorted = peaks[0].clone();
+    sorted.sort_by(f64::total_cmp);
+    let capacity = 0.5 * (sorted[1] + sorted[2]);
+    let cap = capacity.to_string();
+    let o = hbis(
+        d.path(),
+        &[
+            "predict",
+            "--fit",
+            "fit",
+            "--motions",
+            "3",
+            "--seed",
+            "9",
+            "--pga",
+            "0.2g,4.903325",
+            "--capacity",
+            &cap,
+            "--draws",
+            "4",
+            "--tail",
+            "5",
+            "--json",
+            "--out",
+            "pred",
+        ],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let j: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(
+        (j["draws"].as_u64(), j["pairs"].as_u64()),
+        (Some(4), Some(4))
+    );
+    assert!(j.get("motion").is_none());
+    let ms = j["motions"].as_array().unwrap();
+    assert_eq!(ms.len(), 3);
+    for (m, want) in ms.iter().zip(&motions) {
+        assert!((m["pga"].as_f64().unwrap() - levels[0]).abs() < 1e-9);
+        assert!(m["source"]
+            .as_str()
+            .unwrap()
+            .ends_with(&want.source[want.source.len() - 8..]));
+    }
+    let f = j["fragility"].as_array().unwrap();
+    assert_eq!(f.len(), 2);
+    for ((point, level), peaks) in f.iter().zip(levels).zip(&peaks) {
+        assert!((point["pga_g"].as_f64().unwrap() - level / g).abs() < 1e-12);
+        for p in peaks {
+            assert!(
+                (p - capacity).abs() > 1e-5,
+                "capacity {capacity} too near a peak {p}"
+            );
+        }
+        let k = peaks.iter().filter(|&&p| p > capacity).count();
+        let p = point["p_exceed"].as_f64().unwrap();
+        assert_eq!(p, k as f64 / 4.0, "{point}");
+        let (lo, hi) = (
+            point["ci_low"].as_f64().unwrap(),
+            point["ci_high"].as_f64().unwrap(),
+        );
+        assert!(lo <= p && p <= hi && hi - lo > 0.1, "{point}");
+    }
+    assert_eq!(f[0]["p_exceed"], j["p_exceed_capacity"]);
+    assert_eq!(j["p_exceed_ci"]["high"], f[0]["ci_high"]);
+    let csv = std::fs::read_to_string(d.path().join("pred/draws.csv")).unwrap();
+    let motion_col: Vec<&str> = csv
+        .lines()
+        .skip(1)
+        .map(|l| l.rsplit(',').next().unwrap())
+        .collect();
+    assert_eq!(motion_col, ["1", "2", "3", "1"]);
+    for name in ["fragility.png", "response.png", "peak-displacement.png"] {
+        assert!(d.path().join("pred").join(name).exists(), "{name}");
+    }
+
+    // A folder of AT2 files, each scaled to the one level.
+    std::fs::create_dir(d.path().join("suite")).unwrap();
+    write(&d.path().join("suite"), "a.AT2", &at2());
+    write(
+        &d.path().join("suite"),
+        "b.at2",
+        &at2().replace("0.2", "0.4"),
+    );
+    write(&d.path().join("suite"), "notes.txt", "not a motion");
+    write(d.path(), "p.json", TEST5);
+    let o = hbis(
+        d.path(),
+        &[
+            "predict",
+            "--model",
+            "trilinear+lcfm+viscous",
+            "--params",
+            "p.json",
+            "--motions",
+            "suite",
+            "--pga",
+            "0.3g",
+            "--tail",
+            "5",
+            "--json",
+            "--out",
+            "pred-dir",
+        ],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let j: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let ms = j["motions"].as_array().unwrap();
+    assert_eq!(ms.len(), 2);
+    for m in ms {
+        assert!((m["pga"].as_f64().unwrap() - 0.3 * g).abs() < 1e-9, "{m}");
+    }
+    assert!(j.get("fragility").is_none());
+    assert_eq!(j["pairs"], 2);
+}
+
+#[test]
+fn bad_suite_input_exits_2_naming_what_is_wrong() {
+    let d = tempfile::tempdir().unwrap();
+    write(d.path(), "p.json", TEST5);
+    write(d.path(), "gm.AT2", &at2());
+    std::fs::create_dir(d.path().join("empty")).unwrap();
+    let base = [
+        "predict",
+        "--model",
+        "trilinear+lcfm+viscous",
+        "--params",
+        "p.json",
+    ];
+    let cases: Vec<(Vec<&str>, &str)> = vec![
+        (
+            vec!["--motions", "3", "--pga", "0.1g,0.2g"],
+            "give --capacity",
+        ),
+        (vec!["--motions", "3", "--pga", "fast"], "--pga `fast`"),
+        (vec!["--motions", "3", "--pga", "-0.2g"], "--pga `-0.2g`"),
+        (vec!["--motions", "0"], "--motions 0"),
+        (vec!["--motions", "99999999999999999999999"], "1 to 10000"),
+        (vec!["--motions", "nowhere"], "--motions nowhere"),
+        (vec!["--motions", "empty"], "no .AT2 file"),
+        (vec!["--motion", "gm.AT2", "--pga", "0.2g"], "--scale"),
+    ];
+    for (rest, needle) in cases {
+        let args: Vec<&str> = base.iter().copied().chain(rest.iter().copied()).collect();
+        let o = hbis(d.path(), &args);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {}", stderr(&o));
+        assert!(stderr(&o).contains(needle), "{args:?}: {}", stderr(&o));
+        assert!(!stderr(&o).contains("panicked"));
+    }
+}
