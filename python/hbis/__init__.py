@@ -20,9 +20,12 @@ run and is raised from the call.
 The public API is ``__all__``: its functions and classes and the
 constants ``DEFAULT_MODEL`` (the default model, ``hbis fit``'s),
 ``PHYSICAL`` (the names of eq. 8.1's quantities, in the order of
-:meth:`Fit.physical`) and ``PHYSICAL_UNITS`` (their units, Table 8.2's).
+:meth:`Fit.physical`), ``PHYSICAL_UNITS`` (their units, Table 8.2's) and
+``G`` (standard gravity, 9.80665 m/s^2, the ``g`` of a PGA ``"0.3g"``).
 A motion for :func:`predict` and :meth:`Fit.predict` is the ``(t, ag)``
-that :func:`ground_motion` and :func:`read_motion` return, or ``ag, dt``.
+that :func:`ground_motion` and :func:`read_motion` return, or ``ag, dt``;
+:meth:`Fit.predict_suite` takes a suite of them (:func:`ground_motions`)
+and gives a fragility curve.
 """
 
 # Helper imports under private names: the namespace is the public API
@@ -43,6 +46,9 @@ PHYSICAL_UNITS = ("t", "kN/m", "kN/m", "kN/m", "kN/m", "kN s/m")
 
 #: The default model: tri-linear spring, linear-Coulomb friction, viscous damper.
 DEFAULT_MODEL = "trilinear+lcfm+viscous"
+
+#: Standard gravity (m/s^2): the ``g`` of a PGA given as ``"0.3g"``.
+G = 9.80665
 
 
 def table_8_1(k: int) -> dict[str, float]:
@@ -352,6 +358,74 @@ class Fit:
             masses = list(self._raw.physical.reshape(-1, len(PHYSICAL))[idx, 0])
         return _predict(self.report["model"], pooled[idx], ag, dt, tail, capacity, masses, self.effects)
 
+    def predict_suite(
+        self,
+        motions: _t.Union[int, _t.Sequence[tuple[_t.Sequence[float], _t.Sequence[float]]]],
+        pga: _t.Union[None, float, str, _t.Sequence[_t.Union[float, str]]] = None,
+        capacity: _t.Optional[float] = None,
+        draws: int = 1000,
+        tail: float = 20.0,
+        seed: int = 1,
+    ) -> "Prediction":
+        """The posterior's response to a suite of ground motions, and a
+        fragility curve (as ``hbis predict --motions --pga``, to the bit).
+
+        ``motions``: a number ``n`` of synthetic Kanai-Tajimi motions (those
+        of :func:`ground_motions` with ``seed``), or a list of ``(t, ag)``
+        motions (:func:`read_motion`, :func:`ground_motion`). ``draws``
+        draws evenly spaced through the chains are paired with the motions
+        (``max(draws, motions)`` pairs, pair ``k`` taking draw ``k mod
+        draws`` and motion ``k mod motions``), so the summary carries the
+        record-to-record variability.
+
+        ``pga``: a level in m/s^2 or ``"0.3g"``, or a list of them. The
+        motions are scaled to the first (synthetic ones are drawn at it,
+        default 0.3 g); several levels add :attr:`Prediction.fragility`,
+        the probability of exceeding ``capacity`` (m, required then) at
+        each level with its 95 % interval (the motions as clusters)."""
+        if self.posterior is None:
+            raise ValueError("predict_suite(): a MAP-only fit has no posterior draws")
+        levels = [_pga(x, f"pga[{i}]") for i, x in enumerate(_levels(pga))]
+        if isinstance(motions, bool) or not isinstance(motions, (int, _np.integer, list, tuple)):
+            raise TypeError(f"motions: expected a number of motions or a list of (t, ag), got {type(motions).__name__}")
+        if isinstance(motions, (int, _np.integer)):
+            if not 1 <= int(motions) <= 10_000:
+                raise ValueError(f"motions: {int(motions)}: expected 1 to 10000 synthetic motions")
+            first = levels[0] if levels else 0.3 * G
+            suite = [(t[1] - t[0], ag) for t, ag in ground_motions(int(motions), seed=seed, pga=first)]
+            level = None
+        else:
+            if len(motions) == 0:
+                raise ValueError("motions: the list is empty")
+            suite = []
+            for j, m in enumerate(motions):
+                if not _is_pair(m):
+                    raise TypeError(f"motions[{j}]: expected a (t, ag) motion")
+                ag, dt = _motion(m, None)
+                suite.append((dt, _np.ascontiguousarray(ag, dtype=float)))
+            level = levels[0] if levels else None
+        if len(levels) > 1 and capacity is None:
+            raise ValueError("pga: several levels draw a fragility curve of the capacity: give capacity (m)")
+        pooled = self.posterior.reshape(-1, self.posterior.shape[-1])
+        n = pooled.shape[0]
+        idx = [i * n // draws for i in range(draws)] if draws < n else list(range(n))
+        masses = None
+        if self._raw.physical is not None:
+            masses = list(self._raw.physical.reshape(-1, len(PHYSICAL))[idx, 0])
+        rows = [list(map(float, t)) for t in pooled[idx]]
+        per_pair, pairs, text = _hbis.predict_suite(
+            self.report["model"],
+            rows,
+            [(float(dt), list(map(float, ag))) for dt, ag in suite],
+            float(tail),
+            capacity,
+            masses,
+            effects=_effects(self.effects),
+            pgas=levels if len(levels) > 1 else [],
+            level=level,
+        )
+        return Prediction(per_pair, _json.loads(text), pairs=_np.asarray(pairs, dtype=int).reshape(-1, 2))
+
     def __repr__(self) -> str:
         conv = self.converged
         state = "MAP only" if conv is None else ("converged" if conv else "NOT converged")
@@ -530,9 +604,22 @@ class Prediction:
         (per unit mass), ``peak_total_acceleration`` (and ``peak_base_shear_kn``
         with masses), each ``{mean, sd, q05, q50, q95}``, as ``predict.json``.
     p_exceed_capacity : float or None
-        Share of the draws whose peak displacement exceeds the capacity.
+        Share of the draws (of the pairs, for a suite) whose peak
+        displacement exceeds the capacity.
+    p_exceed_ci : dict or None
+        For a suite: that share with its 95 % interval, ``{p, low, high,
+        effective_n}`` (the motions as clusters; ``predict.json``'s
+        ``p_exceed_ci``).
+    fragility : list of dict or None
+        For a suite at several PGA levels: per level ``{pga_g, p_exceed,
+        ci_low, ci_high, effective_pairs, pairs, peak_displacement}``, as
+        ``predict.json``'s ``fragility``.
+    pairs : numpy.ndarray
+        ``(pairs, 2)``: the draw and the motion of each row of
+        :attr:`per_draw` (the draws in order, motion 0, for one motion).
     per_draw : numpy.ndarray
-        ``(draws, 4)``: the four quantities per draw, in the order of :attr:`COLUMNS`.
+        ``(draws, 4)``, or ``(pairs, 4)`` for a suite: the four quantities
+        per draw or pair, in the order of :attr:`COLUMNS`.
     warnings : list of str
         Extrapolation beyond the release test, floored friction, units.
     extrapolation : dict
@@ -546,9 +633,14 @@ class Prediction:
 
     COLUMNS = ["peak_displacement", "residual_displacement", "peak_base_shear", "peak_total_acceleration"]
 
-    def __init__(self, per_draw: _np.ndarray, report: dict[str, _t.Any]):
+    def __init__(self, per_draw: _np.ndarray, report: dict[str, _t.Any], pairs: _t.Optional[_np.ndarray] = None):
         self.per_draw = per_draw
         self.report = report
+        if pairs is None:
+            pairs = _np.column_stack([_np.arange(len(per_draw)), _np.zeros(len(per_draw), dtype=int)])
+        self.pairs: _np.ndarray = pairs
+        self.p_exceed_ci: _t.Optional[dict[str, float]] = report.get("p_exceed_ci")
+        self.fragility: _t.Optional[list[dict[str, _t.Any]]] = report.get("fragility")
         self.summary: dict[str, dict[str, float]] = report["summary"]
         self.p_exceed_capacity: _t.Optional[float] = report["p_exceed_capacity"]
         self.extrapolation: dict[str, float] = report["extrapolation"]
@@ -670,6 +762,39 @@ def ground_motion(
     return _np.arange(len(ag)) * dt, ag
 
 
+def ground_motions(
+    n: int, seed: int = 1, pga: float = 0.3 * 9.80665, duration: float = 40.0, dt: float = 0.01
+) -> list[tuple[_np.ndarray, _np.ndarray]]:
+    """A suite of ``n`` synthetic Kanai-Tajimi motions, motion ``j`` of seed
+    ``suite_seed(seed, j)``: those of ``hbis predict --motions n --seed
+    seed``, each ``(t, ag)`` as :func:`ground_motion` returns it."""
+    return [ground_motion(_hbis.suite_seed(int(seed), j), pga, duration, dt) for j in range(int(n))]
+
+
+def _levels(pga) -> list:
+    if pga is None:
+        return []
+    if isinstance(pga, (str, float, int, _np.floating, _np.integer)):
+        return [pga]
+    return list(pga)
+
+
+def _pga(x, name: str) -> float:
+    """A PGA in m/s^2 from a number (m/s^2) or a string ``"2.94"``,
+    ``"0.3g"``, as ``--pga`` reads it."""
+    try:
+        if isinstance(x, str):
+            t = x.strip()
+            v = float(t[:-1]) * G if t[-1:] in ("g", "G") else float(t)
+        else:
+            v = float(x)
+    except (ValueError, TypeError):
+        raise ValueError(f"{name}: {x!r}: expected an acceleration > 0 in m/s^2 (2.94) or in g ('0.3g')") from None
+    if not (_np.isfinite(v) and v > 0.0):
+        raise ValueError(f"{name}: {x!r}: expected an acceleration > 0 in m/s^2 (2.94) or in g ('0.3g')")
+    return v
+
+
 def read_motion(path: str, units: _t.Optional[str] = None) -> tuple[_np.ndarray, _np.ndarray]:
     """A PEER ``.AT2`` file (its unit from the header) or two columns ``t ag``
     (``units`` = ``'g'``, ``'m/s2'`` or ``'mm/s2'`` required): ``(t, ag)`` in s,
@@ -680,6 +805,7 @@ def read_motion(path: str, units: _t.Optional[str] = None) -> tuple[_np.ndarray,
 
 __all__ = [
     "DEFAULT_MODEL",
+    "G",
     "PHYSICAL",
     "PHYSICAL_UNITS",
     "Fit",
@@ -690,6 +816,7 @@ __all__ = [
     "diagnose",
     "fit",
     "ground_motion",
+    "ground_motions",
     "ladder",
     "param_names",
     "predict",

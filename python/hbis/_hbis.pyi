@@ -104,3 +104,15 @@ def predict(
     effects: List[str] = ...,
     mass: Optional[float] = None,
 ) -> Tuple[Array, str]: ...
+def suite_seed(seed: int, j: int) -> int: ...
+def predict_suite(
+    model: str,
+    thetas: List[List[float]],
+    motions: List[Tuple[float, Array]],
+    tail: float = 20.0,
+    capacity: Optional[float] = None,
+    masses: Optional[List[float]] = None,
+    effects: List[str] = ...,
+    pgas: List[float] = ...,
+    level: Optional[float] = None,
+) -> Tuple[Array, List[Tuple[int, int]], str]: ...

@@ -1064,28 +1064,14 @@ fn read_motion<'py>(
     Ok((m.dt, m.ag.into_pyarray(py)))
 }
 
-/// Each parameter set (rows of `thetas`, in the model's order) under the
-/// ground acceleration `ag` (m/s^2, step `dt`) from rest, `tail` seconds
-/// after: per set `(peak_displacement, residual_displacement,
-/// peak_base_shear, peak_total_acceleration)` as an `(n, 4)` array, and
-/// the summary as `predict.json` holds it (JSON text). `mass` (t, every
-/// set) or `masses` (one per set) give the base shear in kN.
-#[pyfunction]
-#[pyo3(signature = (model, thetas, dt, ag, tail = 20.0, capacity = None, masses = None, effects = Vec::new(), mass = None))]
-#[allow(clippy::too_many_arguments)]
-fn predict<'py>(
-    py: Python<'py>,
-    model: &str,
+/// The parameter sets (rows of `thetas`) and their masses, checked, as
+/// the draws of a prediction.
+fn checked_draws(
+    m: &Model,
     thetas: Vec<Vec<f64>>,
-    dt: f64,
-    #[pyo3(from_py_with = ag_arg)] ag: Bound<'py, PyArray1<f64>>,
-    tail: f64,
-    capacity: Option<f64>,
     masses: Option<Vec<f64>>,
-    effects: Vec<String>,
     mass: Option<f64>,
-) -> PyResult<(Bound<'py, PyArray2<f64>>, String)> {
-    let m = parse_model(model, &effects)?;
+) -> PyResult<Vec<hbis::predict::Draw>> {
     let width = m.layout().names().len();
     if let Some(bad) = thetas.iter().position(|t| t.len() != width) {
         return Err(value_error(format!(
@@ -1124,7 +1110,6 @@ fn predict<'py>(
         m.check(t)
             .map_err(|e| value_error(format!("thetas row {i}: {}", chain(&e))))?;
     }
-    let ag = values(&ag)?;
     let draws: Vec<hbis::predict::Draw> = thetas
         .into_iter()
         .enumerate()
@@ -1134,6 +1119,33 @@ fn predict<'py>(
             origin: None,
         })
         .collect();
+    Ok(draws)
+}
+
+/// Each parameter set (rows of `thetas`, in the model's order) under the
+/// ground acceleration `ag` (m/s^2, step `dt`) from rest, `tail` seconds
+/// after: per set `(peak_displacement, residual_displacement,
+/// peak_base_shear, peak_total_acceleration)` as an `(n, 4)` array, and
+/// the summary as `predict.json` holds it (JSON text). `mass` (t, every
+/// set) or `masses` (one per set) give the base shear in kN.
+#[pyfunction]
+#[pyo3(signature = (model, thetas, dt, ag, tail = 20.0, capacity = None, masses = None, effects = Vec::new(), mass = None))]
+#[allow(clippy::too_many_arguments)]
+fn predict<'py>(
+    py: Python<'py>,
+    model: &str,
+    thetas: Vec<Vec<f64>>,
+    dt: f64,
+    #[pyo3(from_py_with = ag_arg)] ag: Bound<'py, PyArray1<f64>>,
+    tail: f64,
+    capacity: Option<f64>,
+    masses: Option<Vec<f64>>,
+    effects: Vec<String>,
+    mass: Option<f64>,
+) -> PyResult<(Bound<'py, PyArray2<f64>>, String)> {
+    let m = parse_model(model, &effects)?;
+    let draws = checked_draws(&m, thetas, masses, mass)?;
+    let ag = values(&ag)?;
     let n_draws = draws.len();
     let run = Run::default();
     let opts = hbis::predict::PredictOptions {
@@ -1163,6 +1175,107 @@ fn predict<'py>(
     Ok((rows.into_pyarray(py), json.to_string()))
 }
 
+/// The seed of motion `j` of the synthetic suite of seed `seed`, as
+/// `hbis predict --motions N --seed S` draws them.
+#[pyfunction]
+fn suite_seed(#[pyo3(from_py_with = seed_arg)] seed: u64, j: usize) -> u64 {
+    hbis::data::ground_motion::suite_seed(seed, j)
+}
+
+/// The parameter sets paired with a suite of motions `(dt, ag)` (as
+/// `hbis predict --motions`; the library's [`run_prediction`]): per pair
+/// the four quantities as an `(pairs, 4)` array, the `(draw, motion)`
+/// index of each pair, and the report (JSON text). `level` (m/s^2) scales
+/// every motion to that PGA first; `pgas` (m/s^2) add the fragility curve
+/// of `capacity`.
+///
+/// [`run_prediction`]: hbis::study::prediction::run_prediction
+#[pyfunction]
+#[pyo3(signature = (model, thetas, motions, tail = 20.0, capacity = None, masses = None, effects = Vec::new(), pgas = Vec::new(), level = None))]
+#[allow(clippy::too_many_arguments)]
+#[allow(clippy::type_complexity)]
+fn predict_suite<'py>(
+    py: Python<'py>,
+    model: &str,
+    thetas: Vec<Vec<f64>>,
+    motions: Vec<(f64, Vec<f64>)>,
+    tail: f64,
+    capacity: Option<f64>,
+    masses: Option<Vec<f64>>,
+    effects: Vec<String>,
+    pgas: Vec<f64>,
+    level: Option<f64>,
+) -> PyResult<(Bound<'py, PyArray2<f64>>, Vec<(usize, usize)>, String)> {
+    use hbis::data::ground_motion::GroundMotion;
+    use hbis::study::prediction::{run_prediction, PredictJob};
+    let m = parse_model(model, &effects)?;
+    let draws = checked_draws(&m, thetas, masses, None)?;
+    if let Some(c) = capacity {
+        check_positive("capacity", c)?;
+    }
+    for (i, g) in pgas.iter().enumerate() {
+        check_positive(&format!("pga[{i}]"), *g)?;
+    }
+    let motions: Vec<GroundMotion> = motions
+        .into_iter()
+        .enumerate()
+        .map(|(j, (dt, ag))| {
+            let g = GroundMotion {
+                dt,
+                ag,
+                source: format!("motions[{j}]"),
+            };
+            match level {
+                Some(l) => g.scaled_to_pga(l).map_err(err),
+                None => Ok(g),
+            }
+        })
+        .collect::<PyResult<_>>()?;
+    let run = Run::default();
+    let job = PredictJob {
+        model: m,
+        draws,
+        fit: None,
+        fit_seed: None,
+        params: None,
+        motions,
+        scale: 1.0,
+        fragility_pgas: pgas,
+        seed: 0,
+        opts: hbis::predict::PredictOptions {
+            tail,
+            capacity,
+            band_points: 0,
+            cancel: Some(run.cancel.clone()),
+        },
+    };
+    let n_draws = job.draws.len();
+    let n_motions = job.motions.len();
+    let out = interruptible(py, &run, move || run_prediction(&job).map_err(err))?;
+    let p = &out.prediction;
+    let mut rows = Array2::<f64>::zeros((p.outcomes.len(), 4));
+    for (i, o) in p.outcomes.iter().enumerate() {
+        let k = &o.peaks;
+        rows[[i, 0]] = k.peak_displacement;
+        rows[[i, 1]] = k.residual_displacement;
+        rows[[i, 2]] = k.peak_base_shear;
+        rows[[i, 3]] = k.peak_total_acceleration;
+    }
+    let json = serde_json::json!({
+        "draws": n_draws,
+        "motions": n_motions,
+        "pairs": p.pairs.len(),
+        "summary": p.summary,
+        "p_exceed_capacity": p.p_exceed_capacity,
+        "p_exceed_ci": p.exceedance,
+        "fragility": out.fragility,
+        "extrapolation": p.extrapolation,
+        "warnings": p.warnings,
+    });
+    let pairs = p.pairs.iter().map(|x| (x.draw, x.motion)).collect();
+    Ok((rows.into_pyarray(py), pairs, json.to_string()))
+}
+
 /// The compiled part of the `hbis` package.
 #[pymodule]
 fn _hbis(m: &Bound<'_, PyModule>) -> PyResult<()> {
@@ -1178,6 +1291,8 @@ fn _hbis(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(ladder, m)?)?;
     m.add_function(wrap_pyfunction!(kanai_tajimi, m)?)?;
     m.add_function(wrap_pyfunction!(read_motion, m)?)?;
+    m.add_function(wrap_pyfunction!(suite_seed, m)?)?;
+    m.add_function(wrap_pyfunction!(predict_suite, m)?)?;
     m.add_function(wrap_pyfunction!(predict, m)?)?;
     m.add_class::<FitResult>()?;
     Ok(())

@@ -342,6 +342,43 @@ def test_predict_gives_the_binarys_numbers(fitted, cli_fit, tmp_path):
     assert df["peak_displacement"].quantile(0.5) == pytest.approx(p.summary["peak_displacement"]["q50"])
 
 
+def test_a_suite_and_its_fragility_give_the_binarys_numbers(fitted, cli_fit, tmp_path):
+    """Issue 38: ``Fit.predict_suite`` pairs the draws with the same seeded
+    motions as ``hbis predict --motions`` and gives its fragility."""
+    o = run(
+        ["predict", "--fit", str(cli_fit), "--motions", "4", "--seed", "5", "--pga", "0.3g,0.6g", "--draws", "40",
+         "--tail", "10", "--capacity", "0.1", "--json", "--out", "pred"],
+        tmp_path,
+    )
+    assert o.returncode == 0, o.stderr
+    cli = json.loads(o.stdout)
+    p = fitted.predict_suite(4, pga=["0.3g", "0.6g"], capacity=0.1, draws=40, tail=10.0, seed=5)
+    assert p.report["pairs"] == cli["pairs"] == 40
+    assert p.pairs.shape == (40, 2) and list(p.pairs[5]) == [5, 1]
+    for key in hbis.Prediction.COLUMNS:
+        for s in ["mean", "sd", "q05", "q50", "q95"]:
+            assert p.summary[key][s] == pytest.approx(cli["summary"][key][s], rel=1e-12), (key, s)
+    assert len(p.fragility) == len(cli["fragility"]) == 2
+    for mine, theirs in zip(p.fragility, cli["fragility"]):
+        for k in ["pga_g", "p_exceed", "ci_low", "ci_high", "effective_pairs", "pairs"]:
+            assert mine[k] == pytest.approx(theirs[k], rel=1e-12), k
+    assert p.p_exceed_ci["high"] == pytest.approx(cli["p_exceed_ci"]["high"], rel=1e-12)
+    # The motions themselves: ground_motions is the CLI's suite.
+    t, ag = hbis.ground_motions(4, seed=5, pga=0.3 * hbis.G)[2]
+    assert np.max(np.abs(ag)) == pytest.approx(0.3 * hbis.G) and t[1] == pytest.approx(0.01)
+    # A list of (t, ag) motions, scaled to the first level, gives the same.
+    same = fitted.predict_suite(hbis.ground_motions(4, seed=5), pga=["0.3g", "0.6g"], capacity=0.1, draws=40, tail=10.0)
+    assert [f["p_exceed"] for f in same.fragility] == [f["p_exceed"] for f in p.fragility]
+    with pytest.raises(ValueError, match="give capacity"):
+        fitted.predict_suite(2, pga=[2.0, 3.0], draws=4)
+    with pytest.raises(ValueError, match=r"pga\[1\]: 'fast'"):
+        fitted.predict_suite(2, pga=[2.0, "fast"], capacity=0.1, draws=4)
+    with pytest.raises(ValueError, match="1 to 10000"):
+        fitted.predict_suite(0, draws=4)
+    with pytest.raises(TypeError, match=r"motions\[0\]"):
+        fitted.predict_suite([np.zeros(5)], draws=4)
+
+
 def test_predict_one_parameter_set_and_bad_input(tmp_path):
     t, ag = hbis.ground_motion(seed=2, duration=10.0)
     p = hbis.predict(hbis.table_8_1(5), ag, 0.01, tail=5.0)
