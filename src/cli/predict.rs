@@ -334,7 +334,7 @@ pub(super) fn print_summary(
             };
             writeln!(
                 out,
-                "Response to {} ground motions ({level}), {sets}, {} pairs each from rest:",
+                "Response to {} ground motions ({level}), {sets}, {} pairs, each from rest:",
                 ms.len(),
                 p.pairs.len()
             )?
