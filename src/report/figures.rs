@@ -792,7 +792,10 @@ fn draw_traces<DB: DrawingBackend>(
             .y_label_formatter(&tick)
             .y_desc(names[k].as_str())
             .x_labels(if last { 8 } else { 0 })
-            .y_labels(3)
+            // Five at most: the nice step (1, 2 or 5 x 10^k) is then at
+            // most half the range, so at least two ticks fall on it; three
+            // left a range of -0.004..0.004 with the one tick at 0.
+            .y_labels(5)
             .label_style((FONT, 12))
             .axis_desc_style((FONT, 15));
         if last {
@@ -1868,6 +1871,30 @@ mod layout_tests {
             for (t, b) in &texts {
                 assert!(!overlap(l, b), "a mark {l:?} crosses `{t}` {b:?}");
             }
+        }
+    }
+
+    /// Every trace panel has at least two y ticks, whatever its range
+    /// (issue 38: rF0's and zeta0's had one).
+    #[test]
+    fn each_trace_panel_has_two_y_ticks_at_least() {
+        let names = vec!["rF0 (-)".to_string()];
+        for (c, h) in [
+            (0.0, 0.0042),
+            (0.029, 0.0024),
+            (0.1075, 0.0006),
+            (0.03, 0.011),
+        ] {
+            let wave: Vec<f64> = (0..300).map(|i| c + h * (0.1 * i as f64).sin()).collect();
+            let traces = vec![vec![wave]];
+            let svg = svg_text(|p| trace_figure(p, &names, &traces, &[0], 50, "t")).unwrap();
+            // The y tick labels: numbers left of the panel.
+            let ticks: Vec<String> = text_boxes(&svg)
+                .into_iter()
+                .filter(|(t, b)| b[2] < 100.0 && t.parse::<f64>().is_ok())
+                .map(|(t, _)| t)
+                .collect();
+            assert!(ticks.len() >= 2, "{c} +- {h}: {ticks:?}");
         }
     }
 
