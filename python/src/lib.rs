@@ -1122,6 +1122,20 @@ fn checked_draws(
     Ok(draws)
 }
 
+/// Per outcome: peak displacement, residual displacement, peak base shear
+/// and peak total acceleration (`Prediction.COLUMNS`).
+fn peak_rows(outcomes: &[hbis::predict::DrawOutcome]) -> Array2<f64> {
+    let mut rows = Array2::<f64>::zeros((outcomes.len(), 4));
+    for (i, o) in outcomes.iter().enumerate() {
+        let k = &o.peaks;
+        rows[[i, 0]] = k.peak_displacement;
+        rows[[i, 1]] = k.residual_displacement;
+        rows[[i, 2]] = k.peak_base_shear;
+        rows[[i, 3]] = k.peak_total_acceleration;
+    }
+    rows
+}
+
 /// Each parameter set (rows of `thetas`, in the model's order) under the
 /// ground acceleration `ag` (m/s^2, step `dt`) from rest, `tail` seconds
 /// after: per set `(peak_displacement, residual_displacement,
@@ -1157,14 +1171,7 @@ fn predict<'py>(
     let p = interruptible(py, &run, move || {
         hbis::predict::predict(&m, &draws, dt, &ag, &opts).map_err(err)
     })?;
-    let mut rows = Array2::<f64>::zeros((p.outcomes.len(), 4));
-    for (i, o) in p.outcomes.iter().enumerate() {
-        let k = &o.peaks;
-        rows[[i, 0]] = k.peak_displacement;
-        rows[[i, 1]] = k.residual_displacement;
-        rows[[i, 2]] = k.peak_base_shear;
-        rows[[i, 3]] = k.peak_total_acceleration;
-    }
+    let rows = peak_rows(p.outcomes.as_slice());
     let json = serde_json::json!({
         "draws": n_draws,
         "summary": p.summary,
@@ -1253,14 +1260,7 @@ fn predict_suite<'py>(
     let n_motions = job.motions.len();
     let out = interruptible(py, &run, move || run_prediction(&job).map_err(err))?;
     let p = &out.prediction;
-    let mut rows = Array2::<f64>::zeros((p.outcomes.len(), 4));
-    for (i, o) in p.outcomes.iter().enumerate() {
-        let k = &o.peaks;
-        rows[[i, 0]] = k.peak_displacement;
-        rows[[i, 1]] = k.residual_displacement;
-        rows[[i, 2]] = k.peak_base_shear;
-        rows[[i, 3]] = k.peak_total_acceleration;
-    }
+    let rows = peak_rows(p.outcomes.as_slice());
     let json = serde_json::json!({
         "draws": n_draws,
         "motions": n_motions,

@@ -1267,6 +1267,31 @@ fn legend<'a, DB: DrawingBackend + 'a, CT: CoordTranslate>(
         .map_err(|x| x.to_string())
 }
 
+/// The axes in the figures' style: the descriptions (empty: none), ticks
+/// that never read "-0", labels 14 px, descriptions 16 px.
+fn styled_axes<DB: DrawingBackend>(
+    chart: &mut ChartContext<
+        '_,
+        DB,
+        Cartesian2d<plotters::coord::types::RangedCoordf64, plotters::coord::types::RangedCoordf64>,
+    >,
+    x_desc: &str,
+    y_desc: &str,
+) -> Result<(), String> {
+    let mut mesh = chart.configure_mesh();
+    mesh.x_label_formatter(&tick)
+        .y_label_formatter(&tick)
+        .label_style((FONT, 14))
+        .axis_desc_style((FONT, 16));
+    if !x_desc.is_empty() {
+        mesh.x_desc(x_desc);
+    }
+    if !y_desc.is_empty() {
+        mesh.y_desc(y_desc);
+    }
+    mesh.draw().map_err(|x| x.to_string())
+}
+
 /// What [`response_band_figure`] draws.
 #[derive(Debug, Clone, Copy)]
 pub struct ResponseFigure<'a> {
@@ -1352,15 +1377,7 @@ fn draw_band<DB: DrawingBackend>(
         .y_label_area_size(90)
         .build_cartesian_2d(0.0..t1, ys.clone())
         .map_err(e)?;
-    chart
-        .configure_mesh()
-        .y_desc("isolator displacement u (mm)")
-        .x_label_formatter(&tick)
-        .y_label_formatter(&tick)
-        .label_style((FONT, 14))
-        .axis_desc_style((FONT, 16))
-        .draw()
-        .map_err(e)?;
+    styled_axes(&mut chart, "", "isolator displacement u (mm)")?;
     let orange = RGBColor(255, 127, 14);
     if let Some(u0) = fig.release {
         let u0 = 1e3 * u0;
@@ -1475,16 +1492,7 @@ fn draw_motions<DB: DrawingBackend>(
         .y_label_area_size(90)
         .build_cartesian_2d(0.0..t1, ys)
         .map_err(e)?;
-    chart
-        .configure_mesh()
-        .x_desc("time (s)")
-        .y_desc(desc)
-        .x_label_formatter(&tick)
-        .y_label_formatter(&tick)
-        .label_style((FONT, 14))
-        .axis_desc_style((FONT, 16))
-        .draw()
-        .map_err(e)?;
+    styled_axes(&mut chart, "time (s)", &desc)?;
     let grey = RGBColor(90, 90, 90);
     let alpha = if shown.len() == 1 { 1.0 } else { 0.25 };
     for &(dt, ag) in shown {
@@ -1538,16 +1546,11 @@ fn draw_fragility<DB: DrawingBackend>(
         .y_label_area_size(80)
         .build_cartesian_2d(xs.start.max(0.0)..xs.end, 0.0..1.0)
         .map_err(e)?;
-    chart
-        .configure_mesh()
-        .x_desc("peak ground acceleration (g)")
-        .y_desc("probability of exceeding the capacity (-)")
-        .x_label_formatter(&tick)
-        .y_label_formatter(&tick)
-        .label_style((FONT, 14))
-        .axis_desc_style((FONT, 16))
-        .draw()
-        .map_err(e)?;
+    styled_axes(
+        &mut chart,
+        "peak ground acceleration (g)",
+        "probability of exceeding the capacity (-)",
+    )?;
     let blue = RGBColor(31, 119, 180);
     // Caps at both ends of each interval, 16 px wide whatever the axis.
     let cap = move |x: f64, y: f64| {

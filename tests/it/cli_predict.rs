@@ -30,6 +30,14 @@ fn finished_fit(dir: &Path, fit_json: &str, chains: &[&str]) {
         .unwrap();
 }
 
+/// Runs the binary in `dir`, expects success and parses its standard
+/// output (`--json`).
+fn run_json(dir: &Path, args: &[&str]) -> serde_json::Value {
+    let o = hbis(dir, args);
+    assert!(o.status.success(), "{args:?}: {}", stderr(&o));
+    serde_json::from_slice(&o.stdout).unwrap()
+}
+
 fn write(dir: &Path, name: &str, text: &str) {
     std::fs::write(dir.join(name), text).unwrap();
 }
@@ -60,7 +68,7 @@ fn one_parameter_set_under_an_at2_motion_and_the_same_in_columns() {
     let d = tempfile::tempdir().unwrap();
     write(d.path(), "p.json", TEST5);
     write(d.path(), "gm.AT2", &at2());
-    let o = hbis(
+    let j = run_json(
         d.path(),
         &[
             "predict",
@@ -79,8 +87,6 @@ fn one_parameter_set_under_an_at2_motion_and_the_same_in_columns() {
             "pred",
         ],
     );
-    assert!(o.status.success(), "{}", stderr(&o));
-    let j: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     assert_eq!(j["draws"], 1);
     for key in [
         "peak_displacement",
@@ -118,7 +124,7 @@ fn one_parameter_set_under_an_at2_motion_and_the_same_in_columns() {
     assert_eq!(p, if independent > 0.05 { 1.0 } else { 0.0 });
     for (capacity, expected) in [(0.999 * independent, 1.0), (1.001 * independent, 0.0)] {
         let c = capacity.to_string();
-        let o = hbis(
+        let v = run_json(
             d.path(),
             &[
                 "predict",
@@ -137,8 +143,6 @@ fn one_parameter_set_under_an_at2_motion_and_the_same_in_columns() {
                 "pred-c",
             ],
         );
-        assert!(o.status.success(), "{}", stderr(&o));
-        let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
         assert_eq!(
             v["p_exceed_capacity"].as_f64(),
             Some(expected),
@@ -160,7 +164,7 @@ fn one_parameter_set_under_an_at2_motion_and_the_same_in_columns() {
         cols += &format!("{},{}\n", i as f64 * 0.01, a);
     }
     write(d.path(), "gm.csv", &cols);
-    let o = hbis(
+    let k = run_json(
         d.path(),
         &[
             "predict",
@@ -181,8 +185,6 @@ fn one_parameter_set_under_an_at2_motion_and_the_same_in_columns() {
             "pred2",
         ],
     );
-    assert!(o.status.success(), "{}", stderr(&o));
-    let k: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     let peak2 = k["summary"]["peak_displacement"]["mean"].as_f64().unwrap();
     assert!(
         (peak - peak2).abs() < 1e-12 * peak.max(1.0),
@@ -459,7 +461,7 @@ fn a_fragility_over_a_suite_of_motions_counts_pairs_beyond_the_capacity() {
     sorted.sort_by(f64::total_cmp);
     let capacity = 0.5 * (sorted[1] + sorted[2]);
     let cap = capacity.to_string();
-    let o = hbis(
+    let j = run_json(
         d.path(),
         &[
             "predict",
@@ -482,8 +484,6 @@ fn a_fragility_over_a_suite_of_motions_counts_pairs_beyond_the_capacity() {
             "pred",
         ],
     );
-    assert!(o.status.success(), "{}", stderr(&o));
-    let j: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     assert_eq!(
         (j["draws"].as_u64(), j["pairs"].as_u64()),
         (Some(4), Some(4))
@@ -540,7 +540,7 @@ fn a_fragility_over_a_suite_of_motions_counts_pairs_beyond_the_capacity() {
     );
     write(&d.path().join("suite"), "notes.txt", "not a motion");
     write(d.path(), "p.json", TEST5);
-    let o = hbis(
+    let j = run_json(
         d.path(),
         &[
             "predict",
@@ -559,8 +559,6 @@ fn a_fragility_over_a_suite_of_motions_counts_pairs_beyond_the_capacity() {
             "pred-dir",
         ],
     );
-    assert!(o.status.success(), "{}", stderr(&o));
-    let j: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     let ms = j["motions"].as_array().unwrap();
     assert_eq!(ms.len(), 2);
     for m in ms {
