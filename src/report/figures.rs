@@ -771,7 +771,8 @@ fn draw_traces<DB: DrawingBackend>(
 ) -> Result<(), String> {
     let e = |x: DrawingAreaErrorKind<DB::ErrorType>| x.to_string();
     root.fill(&WHITE).map_err(e)?;
-    let root = root.titled(title, (FONT, 24)).map_err(e)?;
+    let size = title_size(root.dim_in_pixel().0, title, 24.0);
+    let root = root.titled(title, (FONT, size)).map_err(e)?;
     let rows = root.split_evenly((names.len(), 1));
     for (k, area) in rows.iter().enumerate() {
         let last = k == names.len() - 1;
@@ -931,7 +932,8 @@ fn draw_missing_form<DB: DrawingBackend>(
     let (r, f) = (&series.residual, &series.described);
     let e = |x: DrawingAreaErrorKind<DB::ErrorType>| x.to_string();
     root.fill(&WHITE).map_err(e)?;
-    let root = root.titled(title, (FONT, 24)).map_err(e)?;
+    let size = title_size(root.dim_in_pixel().0, title, 24.0);
+    let root = root.titled(title, (FONT, size)).map_err(e)?;
     let (top, bottom) = root.split_vertically(root.dim_in_pixel().1 / 2);
     let (left, right) = bottom.split_horizontally(bottom.dim_in_pixel().0 / 2);
     let ys = range(r.iter().chain(f).copied());
@@ -1265,6 +1267,15 @@ fn legend<'a, DB: DrawingBackend + 'a, CT: CoordTranslate>(
         .position(SeriesLabelPosition::UpperRight)
         .draw()
         .map_err(|x| x.to_string())
+}
+
+/// A title's font size: `max` px, less when the title (a long model name)
+/// would run past the figure's edges, taking a glyph as 0.6 em wide (DejaVu
+/// Sans' digits are 0.64, its lowercase letters 0.5 to 0.65); 10 px at
+/// least.
+fn title_size(width: u32, title: &str, max: f64) -> f64 {
+    let glyphs = title.chars().count().max(1) as f64;
+    ((f64::from(width) - 40.0) / (0.6 * glyphs)).clamp(10.0, max)
 }
 
 /// The axes in the figures' style: the descriptions (empty: none), ticks
@@ -1899,6 +1910,23 @@ mod layout_tests {
                 .collect();
             assert!(ticks.len() >= 2, "{c} +- {h}: {ticks:?}");
         }
+    }
+
+    /// A long model's trace title stays within the figure (it ran past
+    /// both edges for the 13 parameters of velocity friction and offset).
+    #[test]
+    fn a_long_trace_title_fits_the_figure() {
+        let names = vec!["u0 (m)".to_string()];
+        let traces = vec![vec![vec![0.1, 0.2, 0.15]]];
+        let title =
+            "trilinear+lcfm+viscous+velocity-friction+offset: traces, 3 walkers of each of \
+                     the 2 ensembles (one colour each; black line: end of burn-in)";
+        let svg = svg_text(|p| trace_figure(p, &names, &traces, &[0], 1, title)).unwrap();
+        let (_, b) = text_boxes(&svg)
+            .into_iter()
+            .find(|(t, _)| t.starts_with("trilinear+lcfm"))
+            .unwrap();
+        assert!(b[0] >= 0.0 && b[2] <= 1400.0, "title box {b:?}");
     }
 
     /// The fit figure's SVG keeps two points per pixel column: a long
