@@ -575,12 +575,7 @@ impl KanaiTajimi {
 /// assert_eq!(suite_seed(7, 3), suite_seed(7, 3));
 /// ```
 pub fn suite_seed(seed: u64, j: usize) -> u64 {
-    fn mix(mut z: u64) -> u64 {
-        z = z.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
+    use crate::inference::sample::mix;
     mix(mix(seed) ^ j as u64)
 }
 

@@ -424,8 +424,9 @@ pub fn conditional_scales<D: LogDensity>(
     Ok(out)
 }
 
-fn mix(mut z: u64) -> u64 {
-    // splitmix64: decorrelates nearby seeds.
+/// splitmix64's finaliser: decorrelates nearby seeds (the sampler's
+/// streams, a ground-motion suite's motions).
+pub(crate) fn mix(mut z: u64) -> u64 {
     z = z.wrapping_add(0x9E37_79B9_7F4A_7C15);
     z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
     z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
