@@ -20,6 +20,7 @@ pub mod priors;
 pub mod proportion;
 pub mod release;
 pub mod sample;
+pub mod stop_check;
 pub mod summary;
 pub mod tmcmc;
 
