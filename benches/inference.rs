@@ -59,8 +59,8 @@ fn map(c: &mut Criterion) {
 
 /// A full posterior run from the MAP with the default settings (2
 /// ensembles, run to 50 autocorrelation times), and one stopped at a
-/// smallest ESS of 1,000 (`--ess 1000`; the stop rule still asks for 50
-/// autocorrelation times and R-hat <= 1.01). The ESS reached is checked,
+/// smallest ESS of 1,000 (`--ess 1000`; the stop rule still asks for a
+/// kept chain of 5 autocorrelation times and R-hat <= 1.01). The ESS reached is checked,
 /// then printed once.
 fn posterior_run(c: &mut Criterion) {
     let (post, _) = posterior();

@@ -61,7 +61,7 @@ pub struct Args {
     #[arg(long, default_value_t = hbis::inference::sample::DEFAULT_ENSEMBLES)]
     ensembles: usize,
     /// Run until the kept chain is this many autocorrelation times long
-    /// (and at least 50, for the estimate to be trusted).
+    /// (and at least 5, the length from which the estimate is trusted).
     #[arg(long, default_value_t = 50.0)]
     tau_multiple: f64,
     /// Run until the smallest effective sample size reaches N (instead of
