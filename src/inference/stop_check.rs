@@ -236,7 +236,7 @@ pub fn check_rule(
                 &target.mode,
                 &scale,
                 settings,
-                seed + r as u64,
+                seed.wrapping_add(r as u64),
                 None,
                 "",
                 &mut |_| {},
