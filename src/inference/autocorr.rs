@@ -321,7 +321,7 @@ fn ess_of_chains(chains: &[&[f64]]) -> f64 {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use rand::{rngs::StdRng, SeedableRng};
     use rand_distr::{Distribution, StandardNormal};
@@ -401,6 +401,26 @@ mod tests {
         }
     }
 
+    /// `m_count` AR(1) chains of `n` draws driven by a hash of the index,
+    /// `frac(sin(k) 43758.5453) - 1/2` (`k = 100003 m + t`), chain `m`
+    /// offset by `off m`: series numpy computes to the same digits, for
+    /// comparisons with ArviZ.
+    pub(crate) fn hashed_ar1(m_count: usize, n: usize, phi: f64, off: f64) -> Vec<Vec<f64>> {
+        (0..m_count)
+            .map(|m| {
+                let mut x = 0.0;
+                (0..n)
+                    .map(|t| {
+                        let k = (m * 100_003 + t) as f64;
+                        let e = (k.sin() * 43_758.545_3).rem_euclid(1.0) - 0.5;
+                        x = phi * x + e;
+                        x + off * m as f64
+                    })
+                    .collect()
+            })
+            .collect()
+    }
+
     /// The same numbers as ArviZ 0.23.4's `_ess_mean` on the same series:
     /// AR(1) chains driven by a hash of the index, `frac(sin(k) 43758.5453)`
     /// less 1/2 (ArviZ's values computed with numpy from that formula), with
@@ -408,21 +428,7 @@ mod tests {
     /// above the draw count) and 11 draws (odd, the shortest sequence).
     #[test]
     fn ess_mean_matches_arviz() {
-        let data = |m_count: usize, n: usize, phi: f64, off: f64| -> Vec<Vec<f64>> {
-            (0..m_count)
-                .map(|m| {
-                    let mut x = 0.0;
-                    (0..n)
-                        .map(|t| {
-                            let k = (m * 100_003 + t) as f64;
-                            let e = (k.sin() * 43_758.545_3).rem_euclid(1.0) - 0.5;
-                            x = phi * x + e;
-                            x + off * m as f64
-                        })
-                        .collect()
-                })
-                .collect()
-        };
+        let data = hashed_ar1;
         let d = data(4, 500, 0.8, 0.1);
         assert!((d[1][5] - -0.379_722_660_772_190_5).abs() < 1e-9);
         for ((m, n, phi, off), arviz) in [

@@ -212,4 +212,26 @@ mod tests {
             .collect();
         assert!(split_rhat(&trend) > 1.5);
     }
+
+    /// The same numbers as ArviZ 0.23.4's `_rhat_rank` (rank-normalised
+    /// split R-hat, bulk and tail, the larger) on the series of
+    /// `autocorr`'s ArviZ test: agreeing chains, 11 draws, a slow chain,
+    /// negative correlation, and chains a level apart.
+    #[test]
+    fn split_rhat_matches_arviz() {
+        use crate::inference::autocorr::tests::hashed_ar1;
+        for ((m, n, phi, off), arviz) in [
+            ((4, 500, 0.8, 0.1), 1.014_058_473_087_198_4),
+            ((3, 11, 0.5, 0.0), 1.102_982_360_131_939),
+            ((8, 300, 0.97, 0.0), 1.270_540_087_012_758_8),
+            ((2, 1000, -0.6, 0.0), 0.999_944_503_044_276_6),
+            ((6, 400, 0.9, 1.0), 2.653_134_407_516_665),
+        ] {
+            let r = split_rhat(&hashed_ar1(m, n, phi, off));
+            assert!(
+                (r - arviz).abs() < 1e-9,
+                "{m}x{n} phi {phi}: {r} vs {arviz}"
+            );
+        }
+    }
 }
