@@ -13,7 +13,11 @@
 //!   (mid-range only on the numerical engine, which costs some 16 to 30
 //!   times the closed form; a start where the effect does nothing moves to
 //!   where it acts); the best is kept and the report says how many starts
-//!   reached it. It gives `e2`, the change of the maximised
+//!   reached it. On a record from an averaging sensor (`+averaging`, a
+//!   likelihood continuous in the event times) each start runs a local
+//!   search, and the global search runs only where the starts disagree,
+//!   from the best of them (other warm-started refits are local too). It
+//!   gives `e2`, the change of the maximised
 //!   log-likelihood, of BIC and of the log-evidence by Laplace's
 //!   approximation at the MAP (Beck & Yuen 2004);
 //! - the diagnostic signature it explains.
@@ -377,8 +381,25 @@ pub fn fit_model(
     settings: &MapSettings,
     seed: u64,
 ) -> Result<ModelFit, CriticismError> {
+    let settings = &local_from_warm(model, start.is_some(), settings)?;
     let (fit, cmp) = map_of(model, data, noise, start, settings, seed)?;
     with_evidence(model, &fit, cmp)
+}
+
+/// A warm-started search on a continuous likelihood (an averaging sensor,
+/// [`Model::interval_mean`]) runs locally, without the global restarts:
+/// it converges from its start, where the instantaneous sensor's staircase
+/// stalls a local search on a step.
+fn local_from_warm(
+    model: &Model,
+    warm: bool,
+    settings: &MapSettings,
+) -> Result<MapSettings, MapError> {
+    if warm && model.interval_mean() {
+        settings.clone().with_restarts(0)
+    } else {
+        Ok(settings.clone())
+    }
 }
 
 /// The MAP stage alone (no evidence), with its comparison numbers.
@@ -506,26 +527,51 @@ fn multi_start(
     settings: &MapSettings,
     rng: &mut StdRng,
 ) -> Result<(ModelFit, usize, usize), CriticismError> {
+    // A continuous likelihood (an averaging sensor) lets a local search
+    // from each start converge: the global search runs only where the
+    // starts disagree, from the best of them.
+    let local = c.model.interval_mean();
+    let per_start = local_from_warm(&c.model, true, settings)?;
+    let n = starts.len();
     let mut fits = Vec::new();
     for s in starts {
-        fits.push(map_of(
-            &c.model,
-            data,
-            noise,
-            Some(s),
-            settings,
-            rng.random(),
-        )?);
+        match map_of(&c.model, data, noise, Some(s), &per_start, rng.random()) {
+            Ok(fit) => fits.push(fit),
+            // A spread start where the density is zero, which a local
+            // search cannot leave.
+            Err(CriticismError::Pipeline(PipelineError::Map(MapError::NothingFeasible {
+                ..
+            }))) if local && !fits.is_empty() => {}
+            Err(e) => return Err(e),
+        }
     }
-    let n = fits.len();
-    let best = fits
-        .iter()
-        .map(|(_, cmp)| cmp.log_likelihood)
-        .fold(f64::NEG_INFINITY, f64::max);
-    let agreeing = fits
+    let best_fit = |fits: &[(MapFit<Model>, Comparison)]| {
+        fits.iter()
+            .map(|(_, cmp)| cmp.log_likelihood)
+            .fold(f64::NEG_INFINITY, f64::max)
+    };
+    let best = best_fit(&fits);
+    let mut agreeing = fits
         .iter()
         .filter(|(_, cmp)| cmp.log_likelihood > best - 1.0)
         .count();
+    if local && agreeing < n {
+        let from = fits
+            .iter()
+            .max_by(|a, b| a.1.log_likelihood.total_cmp(&b.1.log_likelihood))
+            .map(|(f, _)| {
+                Posterior::layout_for(&c.model, noise)
+                    .values(&f.map.theta, 0)
+                    .to_vec()
+            });
+        fits.push(map_of(&c.model, data, noise, from, settings, rng.random())?);
+        let best = best_fit(&fits);
+        agreeing = fits
+            .iter()
+            .filter(|(_, cmp)| cmp.log_likelihood > best - 1.0)
+            .count();
+    }
+    let n = fits.len();
     let (fit, cmp) = fits
         .into_iter()
         .max_by(|a, b| a.1.log_likelihood.total_cmp(&b.1.log_likelihood))

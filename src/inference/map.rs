@@ -98,6 +98,11 @@ impl MapSettings {
         Ok(self)
     }
 
+    /// The total CMA-ES evaluation budget.
+    pub fn max_evals(&self) -> usize {
+        self.max_evals
+    }
+
     /// Most IPOP restarts after the first run (default 19).
     pub fn with_restarts(mut self, n: usize) -> Result<Self, MapError> {
         self.restarts = n;

@@ -245,6 +245,13 @@ pub trait OutputComponent: Send + Sync {
     fn meaning(&self) -> &str;
     /// Applies it with parameters `theta` to `accel` sampled every `dt`.
     fn apply(&self, theta: &[f64], dt: f64, accel: &mut [f64]);
+    /// Whether the sensor reports the mean acceleration over each sample
+    /// interval (centred on the sample instant) instead of the value at the
+    /// instant: the model then forms every sample from the velocity at the
+    /// interval's ends, before any output component applies (default no).
+    fn interval_mean(&self) -> bool {
+        false
+    }
     /// The residual structure it explains when missing; empty: the
     /// residual's serial correlation as a whole.
     fn targets(&self) -> Vec<FeatureKind> {

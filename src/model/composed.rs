@@ -28,6 +28,7 @@
 use std::fmt;
 use std::sync::Arc;
 
+use super::catalog::averaging::interval_mean_into;
 use super::component::{ForceComponent, OutputComponent, ParamSpec, Slot};
 use super::error::{ParamError, SimError};
 use super::forced::{Excitation, ForcedSink, Peaks};
@@ -48,6 +49,8 @@ pub struct Model {
     closed_form: bool,
     /// Per force component: solved by the numerical engine.
     numeric: Vec<bool>,
+    /// The sensor reports interval means ([`OutputComponent::interval_mean`]).
+    interval_mean: bool,
 }
 
 /// Relative tolerance of the numerical engine under shaking (the
@@ -95,6 +98,7 @@ impl Model {
             .map(|c| !c.piecewise_linear() || !c.states().is_empty())
             .collect();
         let closed_form = !numeric.contains(&true);
+        let interval_mean = outputs.iter().any(|o| o.interval_mean());
         Self {
             spec,
             forces,
@@ -102,6 +106,7 @@ impl Model {
             layout,
             closed_form,
             numeric,
+            interval_mean,
         }
     }
 
@@ -145,6 +150,13 @@ impl Model {
     pub fn numerically(mut self) -> Self {
         self.closed_form = false;
         self
+    }
+
+    /// Whether its sensor reports the mean acceleration over each sample
+    /// interval (an `averaging` output component): the likelihood is then
+    /// continuous in the event times.
+    pub fn interval_mean(&self) -> bool {
+        self.interval_mean
     }
 
     /// How many state variables its force components carry.
@@ -256,7 +268,9 @@ impl Model {
         Ok(system)
     }
 
-    /// The motion's acceleration (before output components) on the grid.
+    /// The motion's acceleration (before output components) on the grid:
+    /// its value at each instant, or its mean over each sample interval
+    /// for an averaging sensor ([`catalog::averaging`](super::catalog::averaging)).
     pub fn motion_grid_into(
         &self,
         theta: &[f64],
@@ -264,11 +278,34 @@ impl Model {
         dt: f64,
         out: &mut [f64],
     ) -> Result<(), SimError> {
+        if self.interval_mean {
+            return interval_mean_into(start, dt, out, |s, v| {
+                self.velocity_grid_into(theta, s, dt, v)
+            });
+        }
         if self.closed_form {
             let system = self.system(theta)?;
             return system.accel_grid_into(start, dt, out, &SimOptions::default());
         }
         self.numeric_grid_into(theta, start, dt, out)
+            .map_err(|e| self.naming(e, theta))
+    }
+
+    /// The velocity on the grid `t_i = start + i dt`, on the model's engine.
+    pub fn velocity_grid_into(
+        &self,
+        theta: &[f64],
+        start: f64,
+        dt: f64,
+        out: &mut [f64],
+    ) -> Result<(), SimError> {
+        let system = self.system(theta)?;
+        if self.closed_form {
+            return system.velocity_grid_into(start, dt, out, &SimOptions::default());
+        }
+        let terms = self.numeric_terms(theta);
+        NumericSystem::with_terms(system, &terms)
+            .velocity_grid_into(start, dt, out)
             .map_err(|e| self.naming(e, theta))
     }
 

@@ -184,6 +184,12 @@ impl<'a> NumericSystem<'a> {
         self.grid(start, dt, n, |i, s| out[i] = s.a)
     }
 
+    /// Samples the velocity at `t_i = start + i dt` into `out`.
+    pub fn velocity_grid_into(&self, start: f64, dt: f64, out: &mut [f64]) -> Result<(), SimError> {
+        let n = out.len();
+        self.grid(start, dt, n, |i, s| out[i] = s.v)
+    }
+
     /// The motion at `t_i = start + i dt`, `n` samples: displacement,
     /// velocity, acceleration and the spring's phase (what criticism needs
     /// to place the reversals of a model solved numerically).

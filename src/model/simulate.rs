@@ -333,6 +333,34 @@ impl System {
         self.run(t_end, opts, &mut sink)
     }
 
+    /// Sample the velocity on the grid `t_i = start + i dt` into `out`, by
+    /// the acceleration's recurrence: within a phase the velocity obeys the
+    /// same homogeneous equation (the derivative of the equation of motion
+    /// removes its constant force). Allocates nothing.
+    ///
+    /// ```
+    /// use hbis::model::{ModelSpec, Params, Response, SimOptions, System};
+    /// let (spec, p) = (ModelSpec::FULL, Params::table_8_1(5).unwrap());
+    /// let mut v = vec![0.0; 2001];
+    /// System::new(&spec, &p).velocity_grid_into(0.0, 0.005, &mut v, &SimOptions::default()).unwrap();
+    /// let full = Response::simulate(&spec, &p, 10.0).unwrap().sample_grid(0.005).unwrap();
+    /// assert!(full.iter().zip(&v).all(|(s, v)| (s.v - v).abs() < 1e-12));
+    /// ```
+    pub fn velocity_grid_into(
+        &self,
+        start: f64,
+        dt: f64,
+        out: &mut [f64],
+        opts: &SimOptions,
+    ) -> Result<(), SimError> {
+        check_grid(dt, out.len())?;
+        check_start(start)?;
+        let t_end = start + dt * (out.len() - 1) as f64;
+        let mut sink = AccelSampler::new(start, dt, self.alpha, Write(out));
+        sink.velocity = true;
+        self.run(t_end, opts, &mut sink)
+    }
+
     /// `sum_i (data_i - a(start + i dt))^2`, the acceleration compared
     /// with `data` as it is sampled, never stored: the white-noise
     /// likelihood needs only this sum.
@@ -647,6 +675,8 @@ struct AccelSampler<E> {
     cache: [(f64, Lanes); 8],
     cached: usize,
     alpha: f64,
+    /// Samples the velocity instead of the acceleration.
+    velocity: bool,
 }
 
 /// What the lanes need for one stiffness `K`, over the grid step `h`.
@@ -702,6 +732,7 @@ impl<E: Emit> AccelSampler<E> {
             cache: [(f64::NAN, empty); 8],
             cached: 0,
             alpha,
+            velocity: false,
         }
     }
 
@@ -741,10 +772,16 @@ impl<E: Emit> PhaseSink for AccelSampler<E> {
             let stop = end.min(i + ACCEL_REANCHOR);
             let (u, v) = ph.state_at(self.start + i as f64 * self.dt);
             let a = ph.lin.accel(u, v);
-            let jerk = -(2.0 * self.alpha * a + k * v);
+            // The quantity sampled and its rate: both obey the homogeneous
+            // equation, so one recurrence serves.
+            let (x, dx) = if self.velocity {
+                (v, a)
+            } else {
+                (a, -(2.0 * self.alpha * a + k * v))
+            };
             let mut seeds = [0.0; 2 * LANES];
             for (slot, &(r1, r2)) in seeds.iter_mut().zip(&lanes.row) {
-                *slot = r1 * a + r2 * jerk;
+                *slot = r1 * x + r2 * dx;
             }
             self.emit.put(i, &seeds[..(stop - i).min(2 * LANES)]);
             if stop > i + 2 * LANES {

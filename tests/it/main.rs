@@ -40,4 +40,5 @@ mod record_props;
 mod release;
 mod sampler_stop;
 mod search;
+mod sensor;
 mod verdicts;

@@ -12,11 +12,13 @@
 //! | `maxwell` | force with memory (`q_m`) | `r_m`, `tau_m` | numerical |
 //! | `bouc-wen` | spring law with memory (`z_bw`) | `f0` (core); `f2, uy, n, beta` | numerical |
 //! | `offset` | output | `a_off` | (output) |
+//! | `averaging` | sensor (the mean over each sample interval) | none | (output; offered on request) |
 //!
 //! The release displacement `u0` belongs to the model itself: every model
 //! is released from it.
 
 mod asymmetric_friction;
+pub mod averaging;
 mod bouc_wen;
 mod core;
 mod degradation;
@@ -26,6 +28,7 @@ mod offset;
 mod velocity_friction;
 
 pub use asymmetric_friction::AsymmetricFriction;
+pub use averaging::Averaging;
 pub use bouc_wen::BoucWen;
 pub use core::CoreLaw;
 pub use degradation::Degradation;
