@@ -181,13 +181,13 @@ impl<'a> NumericSystem<'a> {
     /// release) into `out`.
     pub fn accel_grid_into(&self, start: f64, dt: f64, out: &mut [f64]) -> Result<(), SimError> {
         let n = out.len();
-        self.grid(start, dt, n, |i, s| out[i] = s.a)
+        self.grid(start, dt, n, true, |i, s| out[i] = s.a)
     }
 
     /// Samples the velocity at `t_i = start + i dt` into `out`.
     pub fn velocity_grid_into(&self, start: f64, dt: f64, out: &mut [f64]) -> Result<(), SimError> {
         let n = out.len();
-        self.grid(start, dt, n, |i, s| out[i] = s.v)
+        self.grid(start, dt, n, false, |i, s| out[i] = s.v)
     }
 
     /// The motion at `t_i = start + i dt`, `n` samples: displacement,
@@ -203,25 +203,28 @@ impl<'a> NumericSystem<'a> {
             };
             n
         ];
-        self.grid(start, dt, n, |i, s| out[i] = s)?;
+        self.grid(start, dt, n, true, |i, s| out[i] = s)?;
         Ok(out)
     }
 
     /// Integrates and hands each grid sample to `emit`: the state vector
     /// has `2 + n_states` entries, a size fixed at compile time per count.
+    /// Without `accel` the samples' acceleration is not formed (NaN): a
+    /// velocity grid saves a force evaluation per sample.
     fn grid(
         &self,
         start: f64,
         dt: f64,
         n: usize,
+        accel: bool,
         emit: impl FnMut(usize, Motion),
     ) -> Result<(), SimError> {
         match self.n_states() {
-            0 => self.grid_n::<2>(start, dt, n, emit),
-            1 => self.grid_n::<3>(start, dt, n, emit),
-            2 => self.grid_n::<4>(start, dt, n, emit),
-            3 => self.grid_n::<5>(start, dt, n, emit),
-            4 => self.grid_n::<6>(start, dt, n, emit),
+            0 => self.grid_n::<2>(start, dt, n, accel, emit),
+            1 => self.grid_n::<3>(start, dt, n, accel, emit),
+            2 => self.grid_n::<4>(start, dt, n, accel, emit),
+            3 => self.grid_n::<5>(start, dt, n, accel, emit),
+            4 => self.grid_n::<6>(start, dt, n, accel, emit),
             found => Err(SimError::States {
                 found,
                 max: MAX_STATES,
@@ -234,6 +237,7 @@ impl<'a> NumericSystem<'a> {
         start: f64,
         dt: f64,
         n: usize,
+        accel: bool,
         mut emit: impl FnMut(usize, Motion),
     ) -> Result<(), SimError> {
         if !(dt > 0.0 && dt.is_finite()) {
@@ -356,10 +360,13 @@ impl<'a> NumericSystem<'a> {
                     }
                     let tc = ti.max(step.t_start());
                     let y = step.eval(tc);
-                    let a = self
-                        .forces_at(b, &state(&y, d, u_s, s_s), tc, &y[2..])
-                        .accel();
-                    if !a.is_finite() {
+                    let a = if accel {
+                        self.forces_at(b, &state(&y, d, u_s, s_s), tc, &y[2..])
+                            .accel()
+                    } else {
+                        f64::NAN
+                    };
+                    if accel && !a.is_finite() {
                         bad.get_or_insert(ti);
                     }
                     emit(
