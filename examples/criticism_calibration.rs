@@ -5,17 +5,28 @@
 //! a line per record as it finishes, then the table.
 //!
 //! ```sh
-//! cargo run --release --features examples --example criticism_calibration -- 20 5 2026 [outcomes.json]
+//! cargo run --release --features examples --example criticism_calibration -- 20 5 2026 [outcomes.json] [sensor=averaging]
 //! ```
 //! Arguments: null records per noise kind (20), records per hidden effect
-//! (5; eight effects), seed (2026), and optionally a file for the outcomes
-//! as JSON. The table in the README came from that command.
+//! (5; eight effects), seed (2026), optionally a file for the outcomes as
+//! JSON, and `sensor=averaging` to make every record, and fit every model,
+//! with the averaging sensor. The table in the README came from that
+//! command.
 
-use hbis::criticism::calibration::{standard, study, table, Outcome};
+use hbis::criticism::calibration::{standard, study, table, Outcome, Sensor};
 use hbis::model::Registry;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let args: Vec<String> = std::env::args().skip(1).collect();
+    let (options, args): (Vec<String>, Vec<String>) = std::env::args()
+        .skip(1)
+        .partition(|a| a.starts_with("sensor="));
+    let sensor = match options.last().map(String::as_str) {
+        None | Some("sensor=instant") => Sensor::Instant,
+        Some("sensor=averaging") => Sensor::Averaging,
+        Some(other) => {
+            return Err(format!("{other}: expected sensor=instant or sensor=averaging").into())
+        }
+    };
     let nulls: usize = args.first().map_or(Ok(20), |s| s.parse())?;
     let per_effect: usize = args.get(1).map_or(Ok(5), |s| s.parse())?;
     let seed: u64 = args.get(2).map_or(Ok(2026), |s| s.parse())?;
@@ -36,11 +47,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let outcomes = study(
         &Registry::builtin(),
         &standard(nulls, per_effect),
+        sensor,
         seed,
         &line,
     )?;
     println!(
-        "criticism calibration: seed {seed}, {} records, {:.0} s",
+        "criticism calibration: seed {seed}, sensor {sensor:?}, {} records, {:.0} s",
         outcomes.len(),
         clock.elapsed().as_secs_f64()
     );

@@ -227,6 +227,16 @@ def test_map_only_fit_has_no_posterior(record):
         f.summary()
 
 
+def test_the_averaging_sensor_is_a_model_name():
+    avg = MODEL + "+averaging"
+    rec = hbis.synthesize(avg, hbis.table_8_1(5), dt=0.005, n=1201, noise=0.015, seed=12)
+    mean = hbis.fit(rec, avg, seed=1, map_only=True)
+    instant = hbis.fit(rec, MODEL, seed=1, map_only=True)
+    assert mean.report["model"] == avg
+    # The sensor acts: the same record fits otherwise without it.
+    assert mean.report["e2"] != instant.report["e2"]
+
+
 @pytest.mark.parametrize(
     "call, message",
     [

@@ -247,6 +247,29 @@ pub enum Kind {
     Hidden(usize),
 }
 
+/// The accelerometer's sampling in a study: every record is made, and
+/// every model fitted, with it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Sensor {
+    /// The value at each sample instant (the default).
+    #[default]
+    Instant,
+    /// The mean over each sample interval (`+averaging`,
+    /// [`crate::model::catalog::averaging`]).
+    Averaging,
+}
+
+impl Sensor {
+    /// The model `spec` under this sensor.
+    fn model(self, registry: &Registry, spec: &str) -> Result<Model, SpecError> {
+        match self {
+            Sensor::Instant => registry.parse(spec),
+            Sensor::Averaging => registry.parse(&format!("{spec}+averaging")),
+        }
+    }
+}
+
 /// The criticism of one calibration record.
 #[derive(Debug, Clone, Serialize)]
 pub struct Outcome {
@@ -254,6 +277,8 @@ pub struct Outcome {
     pub kind: Kind,
     /// Its seed.
     pub seed: u64,
+    /// The sensor that made it and that every fit assumes.
+    pub sensor: Sensor,
     /// The effect hidden in it (`None` for a null record).
     pub hidden: Option<String>,
     /// The hidden effect's parameters (name, value).
@@ -285,17 +310,19 @@ impl Outcome {
 /// effect's values (name, value).
 pub type MadeRecord = (Model, Aligned, Vec<(String, f64)>);
 
-/// The record of `kind` with seed `seed`: the start model, the record and
-/// the hidden effect's values.
+/// The record of `kind` under `sensor` with seed `seed`: the start model,
+/// the record and the hidden effect's values. The sensor does not change
+/// the draws.
 pub fn make_record(
     registry: &Registry,
     kind: Kind,
+    sensor: Sensor,
     seed: u64,
 ) -> Result<MadeRecord, CalibrationError> {
     let mut rng = StdRng::seed_from_u64(seed);
     let (start, truth_model, p, values) = match kind {
         Kind::NullWhite | Kind::NullColoured => {
-            let m = registry.parse("trilinear+lcfm+viscous")?;
+            let m = sensor.model(registry, "trilinear+lcfm+viscous")?;
             let p = random_truth(&mut rng, &[3, 5, 6, 7, 8]);
             (m.clone(), m, p, Vec::new())
         }
@@ -304,8 +331,8 @@ pub fn make_record(
             let mut p = random_truth(&mut rng, h.columns);
             let values = (h.draw)(&mut rng, &mut p);
             (
-                registry.parse(h.start)?,
-                registry.parse(h.truth)?,
+                sensor.model(registry, h.start)?,
+                sensor.model(registry, h.truth)?,
                 p,
                 values,
             )
@@ -328,8 +355,13 @@ pub fn make_record(
 }
 
 /// Criticises one record as `hbis diagnose --noise auto` does.
-pub fn criticise(registry: &Registry, kind: Kind, seed: u64) -> Result<Outcome, CalibrationError> {
-    let (start, data, hidden_values) = make_record(registry, kind, seed)?;
+pub fn criticise(
+    registry: &Registry,
+    kind: Kind,
+    sensor: Sensor,
+    seed: u64,
+) -> Result<Outcome, CalibrationError> {
+    let (start, data, hidden_values) = make_record(registry, kind, sensor, seed)?;
     let settings = MapSettings::default();
     let noise = choose_noise(&start, &data, &settings, seed ^ 0x0A17_0015)?.chosen;
     let (_, _, ranked) = diagnose_model(registry, &start, &data, noise, &settings, seed)?;
@@ -340,6 +372,7 @@ pub fn criticise(registry: &Registry, kind: Kind, seed: u64) -> Result<Outcome, 
     Ok(Outcome {
         kind,
         seed,
+        sensor,
         hidden: match kind {
             Kind::Hidden(k) => Some(HIDDEN[k].effect.to_string()),
             _ => None,
@@ -367,12 +400,13 @@ pub fn standard(nulls: usize, per_effect: usize) -> Vec<Kind> {
     kinds
 }
 
-/// Criticises the records `kinds`, the `i`-th with seed
+/// Criticises the records `kinds` under `sensor`, the `i`-th with seed
 /// `seed * 1000003 + i`, in parallel; `on_done` is called as each
 /// finishes (for progress). The outcomes come back in the order of `kinds`.
 pub fn study(
     registry: &Registry,
     kinds: &[Kind],
+    sensor: Sensor,
     seed: u64,
     on_done: &(dyn Fn(&Outcome) + Sync),
 ) -> Result<Vec<Outcome>, CalibrationError> {
@@ -383,7 +417,7 @@ pub fn study(
         .collect();
     jobs.into_par_iter()
         .map(|(k, s)| {
-            let o = criticise(registry, k, s)?;
+            let o = criticise(registry, k, sensor, s)?;
             on_done(&o);
             Ok(o)
         })

@@ -13,7 +13,7 @@
 //! to it: the full run measures how often the ladder adds an effect there
 //! (README), and this test only checks that `--noise auto` sees the colour.
 
-use hbis::criticism::calibration::{study, table, Kind, HIDDEN};
+use hbis::criticism::calibration::{study, table, Kind, Sensor, HIDDEN};
 use hbis::model::Registry;
 
 fn hidden(name: &str) -> Kind {
@@ -34,7 +34,7 @@ fn few_false_discoveries_and_hidden_effects_ranked_first() {
         hidden("degradation"),
         hidden("viscous"),
     ];
-    let outcomes = study(&Registry::builtin(), &kinds, 11, &|_| {}).unwrap();
+    let outcomes = study(&Registry::builtin(), &kinds, Sensor::Instant, 11, &|_| {}).unwrap();
     eprintln!("{}", table(&outcomes));
     for o in &outcomes {
         eprintln!(
@@ -85,7 +85,15 @@ fn few_false_discoveries_and_hidden_effects_ranked_first() {
 fn a_candidate_that_only_finds_a_better_basin_is_not_added() {
     use hbis::criticism::calibration::criticise;
     let registry = Registry::builtin();
-    let run = |i: u64| criticise(&registry, Kind::NullColoured, 2026 * 1_000_003 + i).unwrap();
+    let run = |i: u64| {
+        criticise(
+            &registry,
+            Kind::NullColoured,
+            Sensor::Instant,
+            2026 * 1_000_003 + i,
+        )
+        .unwrap()
+    };
     let (a, b) = rayon::join(|| run(11), || run(15));
     for o in [&a, &b] {
         eprintln!(
