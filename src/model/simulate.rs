@@ -326,11 +326,7 @@ impl System {
         out: &mut [f64],
         opts: &SimOptions,
     ) -> Result<(), SimError> {
-        check_grid(dt, out.len())?;
-        check_start(start)?;
-        let t_end = start + dt * (out.len() - 1) as f64;
-        let mut sink = AccelSampler::new(start, dt, self.alpha, Write(out));
-        self.run(t_end, opts, &mut sink)
+        self.grid_into(start, dt, out, opts, false)
     }
 
     /// Sample the velocity on the grid `t_i = start + i dt` into `out`, by
@@ -353,11 +349,23 @@ impl System {
         out: &mut [f64],
         opts: &SimOptions,
     ) -> Result<(), SimError> {
+        self.grid_into(start, dt, out, opts, true)
+    }
+
+    /// The acceleration, or the `velocity`, on the grid into `out`.
+    fn grid_into(
+        &self,
+        start: f64,
+        dt: f64,
+        out: &mut [f64],
+        opts: &SimOptions,
+        velocity: bool,
+    ) -> Result<(), SimError> {
         check_grid(dt, out.len())?;
         check_start(start)?;
         let t_end = start + dt * (out.len() - 1) as f64;
         let mut sink = AccelSampler::new(start, dt, self.alpha, Write(out));
-        sink.velocity = true;
+        sink.velocity = velocity;
         self.run(t_end, opts, &mut sink)
     }
 
