@@ -72,17 +72,22 @@ pub fn interval_mean_into(
     out: &mut [f64],
     mut velocity: impl FnMut(f64, &mut [f64]) -> Result<(), SimError>,
 ) -> Result<(), SimError> {
-    let n = out.len();
-    let mut v = vec![0.0; n + 1];
+    // The velocity at the intervals' right ends fills `out` (no buffer per
+    // evaluation); the left end of the first, from a two-sample grid.
+    velocity(start + 0.5 * dt, out)?;
     let first = start - 0.5 * dt;
-    if first >= 0.0 {
-        velocity(first, &mut v)?;
+    let mut left = if first >= 0.0 {
+        let mut two = [0.0; 2];
+        velocity(first, &mut two)?;
+        two[0]
     } else {
         // The first interval starts before the release, at rest.
-        velocity(start + 0.5 * dt, &mut v[1..])?;
-    }
-    for (o, w) in out.iter_mut().zip(v.windows(2)) {
-        *o = (w[1] - w[0]) / dt;
+        0.0
+    };
+    for o in out.iter_mut() {
+        let right = *o;
+        *o = (right - left) / dt;
+        left = right;
     }
     Ok(())
 }
