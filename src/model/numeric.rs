@@ -44,6 +44,37 @@ use super::simulate::{PhaseKind, System};
 use super::spring::{Spring, SpringBranch};
 use crate::numeric::ode::{Dopri5, Stop};
 
+/// The forces within one phase, its spring line resolved once: the
+/// integrator evaluates them a few thousand times per record, and the
+/// branch lookup would otherwise be repeated at each. The same arithmetic
+/// as [`NumericSystem::forces_at`], so the same bits.
+struct PhaseForces<'s, 'a> {
+    sys: &'s NumericSystem<'a>,
+    k: f64,
+    c: f64,
+    dir: f64,
+}
+
+impl PhaseForces<'_, '_> {
+    #[inline]
+    fn at(&self, k: &Kinematics, t: f64, x: &[f64]) -> Forces {
+        let s = self.sys;
+        let fr = s.system.friction();
+        let mut f = Forces {
+            spring: self.c + self.k * k.u,
+            friction: if s.floored {
+                self.dir * fr.capacity(k.u, self.dir).max(0.0)
+            } else {
+                fr.force(k.u, self.dir)
+            },
+            damper: s.system.damper_rate() * k.v,
+            extra: 0.0,
+        };
+        s.modify(k, t, x, &mut f);
+        f
+    }
+}
+
 /// Most kinks one model may declare (the solver locates 16 events).
 const MAX_KINKS: usize = 13;
 
@@ -113,12 +144,29 @@ impl<'a> NumericSystem<'a> {
             damper: s.damper_rate() * k.v,
             extra: 0.0,
         };
+        self.modify(k, t, x, &mut f);
+        f
+    }
+
+    /// Each component's change to the forces `f`, in order.
+    fn modify(&self, k: &Kinematics, t: f64, x: &[f64], f: &mut Forces) {
         for (i, (c, theta)) in self.terms.iter().enumerate() {
             let x = x.get(self.offsets[i]..self.offsets[i + 1]).unwrap_or(&[]);
             let mem = Memory { t, x, q: &self.q };
-            c.modify_with(theta, k, &mem, &mut f);
+            c.modify_with(theta, k, &mem, f);
         }
-        f
+    }
+
+    /// The force law of one phase: spring branch `b`, sliding direction
+    /// `dir`.
+    fn phase(&self, b: SpringBranch, dir: f64) -> PhaseForces<'_, 'a> {
+        let (k, c, _) = self.system.spring().line(b);
+        PhaseForces {
+            sys: self,
+            k,
+            c,
+            dir,
+        }
     }
 
     /// The states' rates at state `k`, time `t` and states `x`, into `out`.
@@ -330,11 +378,12 @@ impl<'a> NumericSystem<'a> {
             let b = branch;
             let (u_s, s_s) = (u, s);
             let nan = NanWatch::default();
+            let law = self.phase(b, d);
             let rhs = |tt: f64, y: &[f64; N]| {
                 let k = state(y, d, u_s, s_s);
                 let mut r = [0.0; N];
                 r[0] = y[1];
-                r[1] = self.forces_at(b, &k, tt, &y[2..]).accel();
+                r[1] = law.at(&k, tt, &y[2..]).accel();
                 if N > 2 {
                     self.rates_into(&k, tt, &y[2..], &mut r[2..]);
                 }
@@ -361,8 +410,7 @@ impl<'a> NumericSystem<'a> {
                     let tc = ti.max(step.t_start());
                     let y = step.eval(tc);
                     let a = if accel {
-                        self.forces_at(b, &state(&y, d, u_s, s_s), tc, &y[2..])
-                            .accel()
+                        law.at(&state(&y, d, u_s, s_s), tc, &y[2..]).accel()
                     } else {
                         f64::NAN
                     };
@@ -715,7 +763,8 @@ impl NumericSystem<'_> {
                 let b = branch;
                 let (u_s, s_s) = (u, s);
                 let state = |y: &[f64; N]| kin(y[0], y[1], d, s_s + d * (y[0] - u_s));
-                let force = |tt: f64, y: &[f64; N]| self.forces_at(b, &state(y), tt, &y[2..]);
+                let law = self.phase(b, d);
+                let force = |tt: f64, y: &[f64; N]| law.at(&state(y), tt, &y[2..]);
                 let nan = NanWatch::default();
                 let rhs = |tt: f64, y: &[f64; N]| {
                     let mut r = [0.0; N];

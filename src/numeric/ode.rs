@@ -336,7 +336,7 @@ impl Dopri5 {
             let factor = if err == 0.0 {
                 10.0
             } else {
-                (0.9 * err.powf(-0.2)).clamp(0.2, 10.0)
+                (0.9 * inv_fifth_root(err)).clamp(0.2, 10.0)
             };
             if err > 1.0 {
                 h *= factor.min(1.0);
@@ -471,6 +471,39 @@ impl Dopri5 {
         };
         (100.0 * h0).min(h1)
     }
+}
+
+/// `x^(-1/5)` for the step-size factor, to 1e-9 relative (a step factor
+/// needs far less): a bit-level first guess of `log2 x`, then four
+/// Newton steps on `y^-5 = x`, which use no division. `powf` cost a twentieth
+/// of an engine evaluation here.
+///
+/// # Formula
+///
+/// `y0 = 2^(-log2(x) / 5)` with `log2(x)` read from the bits of `x`
+/// (exponent plus mantissa as a linear fraction), then
+/// `y <- y (6 - x y^5) / 5`.
+///
+/// ```
+/// # use hbis::numeric::ode::inv_fifth_root;
+/// for x in [1e-12_f64, 3.7e-4, 1.0, 2.0, 1e6, 1e300, 1e-300] {
+///     let exact = x.powf(-0.2);
+///     assert!((inv_fifth_root(x) - exact).abs() < 1e-9 * exact, "{x}");
+/// }
+/// ```
+pub fn inv_fifth_root(x: f64) -> f64 {
+    debug_assert!(x > 0.0 && x.is_finite());
+    // log2(x) to within 0.09 from the bits (Mitchell's approximation).
+    let bits = x.to_bits() as i64;
+    let log2 = (bits - (1023_i64 << 52)) as f64 / (1_u64 << 52) as f64;
+    let e = -0.2 * log2;
+    // 2^e to within 6 % the same way, read back into the bits.
+    let mut y = f64::from_bits(((e + 1023.0) * (1_u64 << 52) as f64) as u64);
+    for _ in 0..4 {
+        let y2 = y * y;
+        y *= (6.0 - x * y2 * y2 * y) * 0.2;
+    }
+    y
 }
 
 /// Time of the sign change of event `e` inside a step, on the dense output,
