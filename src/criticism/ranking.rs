@@ -98,6 +98,9 @@ pub struct ModelFit {
     pub evaluations: u64,
     /// The noise model of the fit (`theta` ends with its parameters).
     pub noise: Noise,
+    /// Whether its MAP search stopped at its evaluation budget instead of
+    /// converging ([`crate::inference::MapEstimate::at_budget`]).
+    pub at_budget: bool,
 }
 
 impl ModelFit {
@@ -137,6 +140,12 @@ pub struct RankedCandidate {
     /// How many of them reached the best refit (within one unit of
     /// log-likelihood).
     pub agreeing: usize,
+    /// Whether the best refit's search stopped at its evaluation budget
+    /// instead of converging: its BIC and `e2` bound what the model can
+    /// reach from above, and `reason` says so.
+    pub at_budget: bool,
+    /// Posterior evaluations of the best refit's search.
+    pub evaluations: u64,
     /// The residual structure it targets (empty: serial correlation).
     pub targets: Vec<FeatureKind>,
     /// Whether the evidence supports it (log Bayes factor above
@@ -446,6 +455,7 @@ fn with_evidence(
         sd,
         evaluations: map.evaluations(),
         noise: fit.posterior.noise(),
+        at_budget: map.at_budget(),
     })
 }
 
@@ -748,7 +758,9 @@ pub fn rank_candidates(
             target_after,
             shrinks: gate.shrinks(),
             accepted: gate.accepted(),
-            reason: gate.reason(&targets),
+            reason: with_budget_note(gate.reason(&targets), &refit),
+            at_budget: refit.at_budget,
+            evaluations: refit.evaluations,
             effect: c.effect.clone(),
             model: refit.model.clone(),
             score,
@@ -770,6 +782,18 @@ pub fn rank_candidates(
         candidates: out,
         current: fit.clone(),
     })
+}
+
+/// `reason`, and whether the refit stopped at its evaluation budget.
+fn with_budget_note(reason: String, refit: &ModelFit) -> String {
+    if refit.at_budget {
+        format!(
+            "{reason}; its refit stopped at its evaluation budget ({} evaluations) instead of converging",
+            refit.evaluations
+        )
+    } else {
+        reason
+    }
 }
 
 /// How far the profile-likelihood interval of `k` new parameters puts

@@ -33,6 +33,57 @@ pub fn explains_nothing(e2: f64) -> Option<Warning> {
     })
 }
 
+/// `map-at-budget` when the MAP search of `model` stopped at its
+/// evaluation budget (`evaluations` spent) instead of converging.
+///
+/// ```
+/// let w = hbis::criticism::sanity::map_at_budget("bilinear+coulomb", true, 200_123).unwrap();
+/// assert_eq!(w.code, "map-at-budget");
+/// assert!(w.message.contains("200123 evaluations"));
+/// assert!(hbis::criticism::sanity::map_at_budget("bilinear+coulomb", false, 5).is_none());
+/// ```
+pub fn map_at_budget(model: &str, at_budget: bool, evaluations: u64) -> Option<Warning> {
+    at_budget.then(|| Warning {
+        code: "map-at-budget".into(),
+        message: format!(
+            "the MAP search of `{model}` stopped at its evaluation budget ({evaluations} \
+             evaluations) instead of converging: a better point may exist, and what is \
+             compared with this fit (e2, BIC, evidence) may be off"
+        ),
+    })
+}
+
+/// `refits-at-budget` when candidate refits stopped at their evaluation
+/// budget: `refits` names each (`effect`, or `step k: effect` in a ladder)
+/// with its evaluations. Their BIC and `e2` bound what those models reach
+/// from above.
+///
+/// ```
+/// let w = hbis::criticism::sanity::refits_at_budget(&[("degradation".into(), 20_480)]).unwrap();
+/// assert_eq!(w.code, "refits-at-budget");
+/// assert!(w.message.contains("degradation (20480 evaluations)"));
+/// assert!(hbis::criticism::sanity::refits_at_budget(&[]).is_none());
+/// ```
+pub fn refits_at_budget(refits: &[(String, u64)]) -> Option<Warning> {
+    if refits.is_empty() {
+        return None;
+    }
+    let list: Vec<String> = refits
+        .iter()
+        .map(|(what, n)| format!("{what} ({n} evaluations)"))
+        .collect();
+    Some(Warning {
+        code: "refits-at-budget".into(),
+        message: format!(
+            "{} candidate refit(s) stopped at their evaluation budget instead of converging: {}; \
+             their e2 and BIC bound what those models reach from above, so a candidate may be \
+             ranked too low",
+            refits.len(),
+            list.join(", ")
+        ),
+    })
+}
+
 /// `at-bound`, one per parameter whose MAP lies within [`AT_BOUND`] of its
 /// prior's range from a finite bound. A lower bound of exactly 0 is left
 /// out: there a parameter at the bound means the effect is absent (no

@@ -234,6 +234,15 @@ pub struct RunEnd {
 }
 
 impl MapEstimate {
+    /// Whether the search stopped because its evaluation budget was spent
+    /// (its last CMA-ES run ended at `max_evals`) rather than by
+    /// converging: the point may not be the best the model can reach.
+    pub fn at_budget(&self) -> bool {
+        self.runs
+            .last()
+            .is_some_and(|r| r.stop == super::cmaes::StopReason::MaxEvals)
+    }
+
     /// All posterior evaluations: preparation, CMA-ES and polish.
     pub fn evaluations(&self) -> u64 {
         self.preparation_evaluations

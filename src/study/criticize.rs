@@ -142,7 +142,23 @@ fn with_fit_warnings(mut warnings: Vec<Warning>, model: &Model, fit: &ModelFit) 
     warnings.extend(crate::criticism::sanity::fit_warnings(
         &fit.names, &fit.theta, fit.e2, &priors,
     ));
+    warnings.extend(crate::criticism::sanity::map_at_budget(
+        &fit.model,
+        fit.at_budget,
+        fit.evaluations,
+    ));
     warnings
+}
+
+/// `refits-at-budget` over `candidates`, each named by `label`.
+fn refit_warnings<'c>(
+    candidates: impl Iterator<Item = (String, &'c RankedCandidate)>,
+) -> Option<Warning> {
+    let at: Vec<(String, u64)> = candidates
+        .filter(|(_, c)| c.at_budget)
+        .map(|(label, c)| (label, c.evaluations))
+        .collect();
+    crate::criticism::sanity::refits_at_budget(&at)
 }
 
 /// `diagnosis.json`.
@@ -167,6 +183,9 @@ pub struct DiagnosisReport {
     pub bic: f64,
     /// Laplace log-evidence at the MAP.
     pub log_evidence: f64,
+    /// Whether the start model's MAP search stopped at its evaluation
+    /// budget instead of converging.
+    pub at_budget: bool,
     /// The MAP, by parameter name.
     pub map: BTreeMap<String, f64>,
     /// Every candidate, best first.
@@ -213,6 +232,7 @@ pub fn diagnose(
         e2: fit.e2,
         bic: fit.bic,
         log_evidence: fit.log_evidence,
+        at_budget: fit.at_budget,
         map: fit
             .names
             .iter()
@@ -223,7 +243,13 @@ pub fn diagnose(
         conclusion: crate::criticism::conclusion(&residual, &candidates),
         verdict: residual.verdict.clone(),
         missing_form: missing_form(&s.model, &fit, &s.data, settings)?,
-        warnings: with_fit_warnings(s.warnings.clone(), &s.model, &fit),
+        warnings: {
+            let mut w = with_fit_warnings(s.warnings.clone(), &s.model, &fit);
+            w.extend(refit_warnings(
+                candidates.iter().map(|c| (c.effect.clone(), c)),
+            ));
+            w
+        },
         candidates,
         residual,
     };
@@ -350,6 +376,8 @@ pub struct LadderStep {
     pub log_evidence: f64,
     /// The release lag of this step's fit (s).
     pub lag: f64,
+    /// Whether this step's MAP search stopped at its evaluation budget.
+    pub at_budget: bool,
     /// The residual's verdict.
     pub verdict: String,
     /// Every candidate, best first.
@@ -389,12 +417,27 @@ pub fn ladder(
         on_step,
     )?;
     let steps = search.steps;
-    let warnings = match steps.last() {
+    let mut warnings = match steps.last() {
         Some(last) => {
             with_fit_warnings(s.warnings.clone(), &registry.parse(&last.model)?, &last.fit)
         }
         None => s.warnings.clone(),
     };
+    // Every refit of the path, and every step's own fit.
+    warnings.extend(refit_warnings(steps.iter().enumerate().flat_map(
+        |(k, st)| {
+            st.candidates
+                .iter()
+                .map(move |c| (format!("step {k}: {}", c.effect), c))
+        },
+    )));
+    for (k, st) in steps.iter().enumerate().take(steps.len().saturating_sub(1)) {
+        warnings.extend(crate::criticism::sanity::map_at_budget(
+            &format!("{} (step {k})", st.model),
+            st.fit.at_budget,
+            st.fit.evaluations,
+        ));
+    }
     let data = s
         .data
         .clone()
@@ -430,6 +473,7 @@ fn ladder_step(s: &Step) -> LadderStep {
         bic: s.bic,
         log_evidence: s.log_evidence,
         lag: s.lag,
+        at_budget: s.fit.at_budget,
         verdict: s.diagnosis.verdict.clone(),
         candidates: s.candidates.clone(),
         caution: s.caution.clone(),

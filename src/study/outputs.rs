@@ -132,6 +132,11 @@ pub fn fit_report(fit: &Fit, run: &FitRun, chains: Vec<String>, thin: Option<usi
         fit.map.eval.e2,
         fit.posterior.priors(),
     );
+    r.warnings.extend(crate::criticism::sanity::map_at_budget(
+        &fit.posterior.model().name(),
+        fit.map.at_budget(),
+        fit.map.evaluations(),
+    ));
     r.warnings.extend(crate::criticism::sanity::structured_at(
         &fit.posterior,
         &fit.map.theta,

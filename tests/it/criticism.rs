@@ -302,3 +302,64 @@ fn a_degrading_stiffness_outside_the_catalog_is_reported_not_absorbed() {
     let best = &last.candidates[0];
     assert!(best.supported && !best.accepted, "{best:?}");
 }
+
+/// A search cut short by its evaluation budget is reported: the start
+/// model's fit (`at_budget`, warning `map-at-budget`) and each candidate
+/// refit (`at_budget`, its `reason`, warning `refits-at-budget`); with the
+/// default budget the start model's search converges and nothing is said.
+#[test]
+fn searches_that_stop_at_their_budget_are_reported() {
+    use hbis::study::criticize::{diagnose, Setup};
+    let truth_model = Model::parse("trilinear+lcfm+viscous").unwrap();
+    let p = Params::table_8_1(5).unwrap();
+    let truth = truth_model.theta_from_params(&p, &[]).unwrap();
+    let (data, _) = record(&truth_model, &truth, 71);
+    let setup = Setup {
+        model: Model::parse("bilinear+coulomb").unwrap(),
+        data,
+        noise: Noise::White,
+        noise_choice: None,
+        seed: 5,
+        source: "synthetic".into(),
+        warnings: Vec::new(),
+    };
+    let registry = Registry::builtin().with_candidates(&["viscous"]).unwrap();
+    let codes = |w: &[hbis::data::Warning]| w.iter().map(|w| w.code.clone()).collect::<Vec<_>>();
+
+    let short = MapSettings::default().with_max_evals(400).unwrap();
+    let clock = std::time::Instant::now();
+    let d = diagnose(&registry, &setup, &short).unwrap().report;
+    println!("short budget: {:.1} s", clock.elapsed().as_secs_f64());
+    assert!(d.at_budget, "400 evaluations cannot converge");
+    let c = &d.candidates[0];
+    assert!(c.at_budget, "{c:?}");
+    assert!(
+        c.reason.contains("stopped at its evaluation budget"),
+        "{}",
+        c.reason
+    );
+    let found = codes(&d.warnings);
+    assert!(found.contains(&"map-at-budget".to_string()), "{found:?}");
+    assert!(found.contains(&"refits-at-budget".to_string()), "{found:?}");
+
+    let d = diagnose(&registry, &setup, &MapSettings::default())
+        .unwrap()
+        .report;
+    assert!(
+        !d.at_budget,
+        "the default budget converges on a clean record"
+    );
+    let found = codes(&d.warnings);
+    assert!(!found.contains(&"map-at-budget".to_string()), "{found:?}");
+    let at: Vec<_> = d.candidates.iter().filter(|c| c.at_budget).collect();
+    assert_eq!(
+        found.contains(&"refits-at-budget".to_string()),
+        !at.is_empty()
+    );
+    let evals: Vec<_> = d
+        .candidates
+        .iter()
+        .map(|c| (&c.effect, c.evaluations))
+        .collect();
+    println!("default budget: candidate refits {evals:?}");
+}
