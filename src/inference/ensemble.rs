@@ -557,7 +557,10 @@ pub struct Ensemble {
 impl Ensemble {
     /// Checks the walkers (even number, at least `2 dim`, finite density,
     /// spanning all dimensions) and evaluates them.
-    pub fn new<D: LogDensity>(density: &D, positions: Vec<Vec<f64>>) -> Result<Self, SamplerError> {
+    pub fn new<D: LogDensity + ?Sized>(
+        density: &D,
+        positions: Vec<Vec<f64>>,
+    ) -> Result<Self, SamplerError> {
         let dim = density.dim();
         let n = positions.len();
         if n < 2 * dim || n % 2 != 0 {
@@ -783,7 +786,7 @@ impl<Mv: Move> EnsembleSampler<Mv> {
 
     /// One step: each half moved against the other. Returns how many
     /// proposals were accepted per walker (0 or 1).
-    pub fn step<D: LogDensity, R: Rng + ?Sized>(
+    pub fn step<D: LogDensity + ?Sized, R: Rng + ?Sized>(
         &self,
         ens: &mut Ensemble,
         density: &D,
@@ -795,7 +798,7 @@ impl<Mv: Move> EnsembleSampler<Mv> {
     }
 
     /// One step in reused buffers, adding the acceptances to `accepted`.
-    fn step_with<D: LogDensity, R: Rng + ?Sized>(
+    fn step_with<D: LogDensity + ?Sized, R: Rng + ?Sized>(
         &self,
         ens: &mut Ensemble,
         density: &D,
@@ -831,7 +834,7 @@ impl<Mv: Move> EnsembleSampler<Mv> {
     }
 
     /// `steps` steps from `ens`, recorded after each step.
-    pub fn run<D: LogDensity, R: Rng + ?Sized>(
+    pub fn run<D: LogDensity + ?Sized, R: Rng + ?Sized>(
         &self,
         ens: &mut Ensemble,
         density: &D,
@@ -881,7 +884,7 @@ const SERIAL_BUDGET: Duration = Duration::from_micros(5);
 /// parallel. A proposal outside the prior returns at once, so no single
 /// evaluation's time decides. Only the schedule depends on the timing; the
 /// values, and so the chain, do not.
-fn evaluate<D: LogDensity>(
+fn evaluate<D: LogDensity + ?Sized>(
     density: &D,
     proposals: &[f64],
     dim: usize,

@@ -404,7 +404,7 @@ impl PosteriorSample {
 /// Per-coordinate conditional standard deviations at `center`: the step
 /// along each axis (both ways, averaged) that lowers the log-density by 1/2,
 /// found by doubling then bisection. `range[k]` bounds the search.
-pub fn conditional_scales<D: LogDensity>(
+pub fn conditional_scales<D: LogDensity + ?Sized>(
     density: &D,
     center: &[f64],
     range: &[f64],
@@ -466,7 +466,7 @@ fn stream(seed: u64, ensemble: usize, chunk: u64) -> StdRng {
 }
 
 /// Draws one ensemble, walker `w` around `centres[w % centres.len()]`.
-fn start<D: LogDensity>(
+fn start<D: LogDensity + ?Sized>(
     density: &D,
     centres: &[&[f64]],
     scale: &[f64],
@@ -905,7 +905,7 @@ fn fingerprint(
 /// is a folder to save to and resume from; `extra` joins the checkpoint's
 /// fingerprint (e.g. the model and the record's name).
 #[allow(clippy::too_many_arguments)]
-pub fn sample_posterior<D: LogDensity>(
+pub fn sample_posterior<D: LogDensity + ?Sized>(
     density: &D,
     names: &[String],
     center: &[f64],

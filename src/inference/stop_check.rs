@@ -67,19 +67,6 @@ pub struct Target {
     range: Vec<f64>,
 }
 
-/// A borrowed trait object as a density (the sampler takes a sized one).
-struct Borrowed<'a>(&'a (dyn LogDensity + Send));
-
-impl LogDensity for Borrowed<'_> {
-    fn dim(&self) -> usize {
-        self.0.dim()
-    }
-
-    fn ln_density(&self, x: &[f64]) -> Result<f64, SamplerError> {
-        self.0.ln_density(x)
-    }
-}
-
 impl Target {
     /// `density` with true means `mean`, runs started around `mode`, whose
     /// starting scales are searched within `range` of it.
@@ -225,13 +212,13 @@ pub fn check_rule(
 ) -> Result<RuleCheck, SampleError> {
     let d = target.mean.len();
     let names: Vec<String> = (0..d).map(|k| format!("x{k}")).collect();
-    let density = Borrowed(&*target.density);
-    let scale = conditional_scales(&density, &target.mode, &target.range)?;
+    let density = &*target.density;
+    let scale = conditional_scales(density, &target.mode, &target.range)?;
     let results = (0..runs)
         .into_par_iter()
         .map(|r| {
             let s = sample_posterior(
-                &density,
+                density,
                 &names,
                 &target.mode,
                 &scale,
