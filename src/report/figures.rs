@@ -590,7 +590,8 @@ fn draw_corner<DB: DrawingBackend>(
 ) -> Result<(), String> {
     let e = |x: DrawingAreaErrorKind<DB::ErrorType>| x.to_string();
     root.fill(&WHITE).map_err(e)?;
-    let root = root.titled(title, (FONT, 26)).map_err(e)?;
+    let size = title_size(root.dim_in_pixel().0, title, 26.0);
+    let root = root.titled(title, (FONT, size)).map_err(e)?;
     let d = names.len();
     let cells = root.split_evenly((d, d));
     let ranges: Vec<std::ops::Range<f64>> = (0..d)
@@ -1927,6 +1928,23 @@ mod layout_tests {
             .find(|(t, _)| t.starts_with("trilinear+lcfm"))
             .unwrap();
         assert!(b[0] >= 0.0 && b[2] <= 1400.0, "title box {b:?}");
+    }
+
+    /// A long model's corner title stays within the figure (two parameters
+    /// draw a 600 px figure; the title of a five-effect model is some
+    /// 110 glyphs).
+    #[test]
+    fn a_long_corner_title_fits_the_figure() {
+        let names = vec!["u0 (m)".to_string(), "uy (m)".to_string()];
+        let points = vec![vec![0.1, 0.01], vec![0.11, 0.012], vec![0.105, 0.011]];
+        let title = "trilinear+lcfm+viscous+velocity-friction+offset: posterior (red: MAP, \
+                     black: truth; titles: median [90 % interval])";
+        let svg = svg_text(|p| corner_figure(p, &names, &points, None, None, title)).unwrap();
+        let (_, b) = text_boxes(&svg)
+            .into_iter()
+            .find(|(t, _)| t.starts_with("trilinear+lcfm"))
+            .unwrap();
+        assert!(b[0] >= 0.0 && b[2] <= 600.0, "title box {b:?}");
     }
 
     /// The fit figure's SVG keeps two points per pixel column: a long
