@@ -46,8 +46,7 @@ use crate::numeric::ode::{Dopri5, Stop};
 
 /// The forces within one phase, its spring line resolved once: the
 /// integrator evaluates them a few thousand times per record, and the
-/// branch lookup would otherwise be repeated at each. The same arithmetic
-/// as [`NumericSystem::forces_at`], so the same bits.
+/// branch lookup would otherwise be repeated at each.
 struct PhaseForces<'s, 'a> {
     sys: &'s NumericSystem<'a>,
     k: f64,
@@ -133,19 +132,7 @@ impl<'a> NumericSystem<'a> {
     /// The forces on spring branch `b` at state `k`, time `t` since the
     /// release and component states `x` (all of them, in term order).
     pub fn forces_at(&self, b: SpringBranch, k: &Kinematics, t: f64, x: &[f64]) -> Forces {
-        let s = &self.system;
-        let mut f = Forces {
-            spring: s.spring().force(b, k.u),
-            friction: if self.floored {
-                k.dir * s.friction().capacity(k.u, k.dir).max(0.0)
-            } else {
-                s.friction().force(k.u, k.dir)
-            },
-            damper: s.damper_rate() * k.v,
-            extra: 0.0,
-        };
-        self.modify(k, t, x, &mut f);
-        f
+        self.phase(b, k.dir).at(k, t, x)
     }
 
     /// Each component's change to the forces `f`, in order.
