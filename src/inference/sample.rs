@@ -1004,18 +1004,12 @@ pub fn sample_posterior<D: LogDensity + ?Sized>(
             verdict = stop_rule(&chains, tau_max, settings, steps);
         }
         let converged = verdict.converged;
-        let target = if tau_max.is_finite() {
-            ((settings.tau_multiple.max(settings.trust_multiple) + settings.burn_multiple)
-                * tau_max)
-                .ceil() as usize
-        } else {
-            settings.max_steps
-        };
+        let target = target_steps(settings, tau_max, walkers * chains.len());
         progress(Progress {
             steps,
             max_steps: settings.max_steps,
             tau_max,
-            target_steps: target.min(settings.max_steps),
+            target_steps: target,
         });
         if converged || steps >= settings.max_steps {
             break;
@@ -1183,6 +1177,29 @@ fn stop_rule(chains: &[Chain], tau_max: f64, settings: &SampleSettings, steps: u
     }
 }
 
+/// Steps per ensemble the stop rule needs if the autocorrelation time
+/// stays `tau` (the budget while it is unknown), for a progress display:
+/// burn-in plus the kept chain that the rule asks for, `draws_per_step`
+/// being the walkers of all ensembles.
+///
+/// # Formula
+///
+/// `burn_multiple tau + max(trust tau, K tau)`, with `K` the tau multiple,
+/// or under an ESS target `N` (the ESS summed over ensembles is
+/// `kept draws_per_step / tau`) `K = N / draws_per_step`; at most
+/// `max_steps`.
+fn target_steps(settings: &SampleSettings, tau: f64, draws_per_step: usize) -> usize {
+    if !tau.is_finite() {
+        return settings.max_steps;
+    }
+    let multiple = match settings.ess {
+        Some(n) => n / draws_per_step.max(1) as f64,
+        None => settings.tau_multiple,
+    };
+    let steps = (settings.burn_multiple + multiple.max(settings.trust_multiple)) * tau;
+    (steps.ceil() as usize).min(settings.max_steps)
+}
+
 /// `a >= b`, false when either is NaN (a condition a NaN cannot meet).
 fn at_least(a: f64, b: f64) -> bool {
     a >= b
@@ -1256,6 +1273,25 @@ fn burn_in(tau_max: f64, settings: &SampleSettings, steps: usize) -> usize {
 
 #[cfg(test)]
 mod tests {
+    /// The progress target follows the rule that stops the run: the tau
+    /// multiple, or under `--ess` the kept chain that ESS needs (it
+    /// projected from the tau multiple before).
+    #[test]
+    fn the_progress_target_follows_the_stop_rule() {
+        let s = SampleSettings::default();
+        // burn 5 tau + 50 tau.
+        assert_eq!(super::target_steps(&s, 10.0, 192), 550);
+        assert_eq!(super::target_steps(&s, f64::NAN, 192), 20_000);
+        // ESS 100,000 with 192 draws per step: 520.8 tau kept.
+        let e = s.clone().with_ess(100_000.0).unwrap();
+        assert_eq!(super::target_steps(&e, 10.0, 192), 5_259);
+        // A small ESS target: the trust multiple (5 tau) binds.
+        let e = s.clone().with_ess(100.0).unwrap();
+        assert_eq!(super::target_steps(&e, 10.0, 192), 100);
+        // Never past the budget.
+        assert_eq!(super::target_steps(&s, 1e6, 192), 20_000);
+    }
+
     use super::*;
     use crate::inference::ensemble::FnDensity;
 
