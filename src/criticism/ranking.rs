@@ -381,8 +381,9 @@ pub(super) fn replace_release(
 }
 
 /// Fits `model` to `data` (default priors, `noise`) with the MAP stage
-/// `hbis fit` runs, warm-started from `start` (the model's parameters) if
-/// given; BIC and the Laplace evidence at the MAP.
+/// `hbis fit` runs, or from `start` (the model's parameters) if given, by
+/// a local search (one CMA-ES run and the polish); BIC and the Laplace evidence at
+/// the MAP.
 pub fn fit_model(
     model: &Model,
     data: &Aligned,
