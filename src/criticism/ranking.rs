@@ -564,38 +564,43 @@ fn multi_start(
             Err(e) => return Err(e),
         }
     }
-    let best_fit = |fits: &[(MapFit<Model>, Comparison)]| {
-        fits.iter()
-            .map(|(_, cmp)| cmp.log_likelihood)
-            .fold(f64::NEG_INFINITY, f64::max)
-    };
-    let best = best_fit(&fits);
-    let mut agreeing = fits
-        .iter()
-        .filter(|(_, cmp)| cmp.log_likelihood > best - 1.0)
-        .count();
-    if agreeing < n && escalates(&c.model) {
-        let from = fits
-            .iter()
-            .max_by(|a, b| a.1.log_likelihood.total_cmp(&b.1.log_likelihood))
-            .map(|(f, _)| {
-                Posterior::layout_for(&c.model, noise)
-                    .values(&f.map.theta, 0)
-                    .to_vec()
-            });
+    if agreeing(&fits) < n && escalates(&c.model) {
+        let from = fits.get(best_of(&fits)).map(|(f, _)| {
+            Posterior::layout_for(&c.model, noise)
+                .values(&f.map.theta, 0)
+                .to_vec()
+        });
         fits.push(map_of(&c.model, data, noise, from, settings, rng.random())?);
-        let best = best_fit(&fits);
-        agreeing = fits
-            .iter()
-            .filter(|(_, cmp)| cmp.log_likelihood > best - 1.0)
-            .count();
     }
-    let n = fits.len();
-    let (fit, cmp) = fits
-        .into_iter()
-        .max_by(|a, b| a.1.log_likelihood.total_cmp(&b.1.log_likelihood))
-        .expect("at least the warm start");
-    Ok((with_evidence(&c.model, &fit, cmp)?, n, agreeing))
+    let (agree, n) = (agreeing(&fits), fits.len());
+    let (fit, cmp) = fits.swap_remove(best_of(&fits));
+    Ok((with_evidence(&c.model, &fit, cmp)?, n, agree))
+}
+
+/// A refit with its comparison numbers.
+type Refitted = (MapFit<Model>, Comparison);
+
+/// Index of the refit with the highest log-likelihood (the last of equals;
+/// 0 if there is none).
+fn best_of(fits: &[Refitted]) -> usize {
+    (0..fits.len())
+        .max_by(|&a, &b| {
+            fits[a]
+                .1
+                .log_likelihood
+                .total_cmp(&fits[b].1.log_likelihood)
+        })
+        .unwrap_or(0)
+}
+
+/// How many refits end within one unit of log-likelihood of the best.
+fn agreeing(fits: &[Refitted]) -> usize {
+    let best = fits
+        .get(best_of(fits))
+        .map_or(f64::NEG_INFINITY, |f| f.1.log_likelihood);
+    fits.iter()
+        .filter(|(_, cmp)| cmp.log_likelihood > best - 1.0)
+        .count()
 }
 
 /// Screens, refits and ranks every registered component absent from
