@@ -382,8 +382,8 @@ pub(super) fn replace_release(
 
 /// Fits `model` to `data` (default priors, `noise`) with the MAP stage
 /// `hbis fit` runs, or from `start` (the model's parameters) if given, by
-/// a local search (one CMA-ES run and the polish); BIC and the Laplace evidence at
-/// the MAP.
+/// a local search (one CMA-ES run and the polish); BIC and the Laplace
+/// evidence at the MAP.
 pub fn fit_model(
     model: &Model,
     data: &Aligned,
@@ -414,10 +414,10 @@ fn local_from_warm(warm: bool, settings: &MapSettings) -> Result<MapSettings, Ma
 /// the best of them. Not on the numerical engine with the instantaneous
 /// sensor: there the global search ran to its 20,000-evaluation budget on
 /// every numerical candidate of the demo's `record.csv` without
-/// converging, and leaving it out changed no ranking or decision of the
-/// calibration study (40 records, seed 146544: 0 of 16 null records with
-/// an effect added, 24 of 24 hidden effects first, 16 accepted, as with
-/// it; docs/criticism.md).
+/// converging, and without it the calibration study's totals stayed the
+/// same (40 records, seed 146544: 0 of 16 null records with an effect
+/// added, 24 of 24 hidden effects first, 16 accepted; docs/criticism.md;
+/// records were not compared one by one).
 fn escalates(model: &Model) -> bool {
     model.closed_form() || model.interval_mean()
 }
