@@ -9,6 +9,7 @@
 pub mod calibration;
 pub mod features;
 pub mod missing_form;
+pub mod off_jumps;
 pub mod ranking;
 pub mod residuals;
 pub mod sanity;

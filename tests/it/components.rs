@@ -186,9 +186,9 @@ fn hidden(h: Hidden) {
             1,
         )
         .unwrap();
-        let names: Vec<(&str, f64)> = ranked
+        let names: Vec<(&str, f64, Option<f64>)> = ranked
             .iter()
-            .map(|c| (c.effect.as_str(), c.delta_bic))
+            .map(|c| (c.effect.as_str(), c.delta_bic, c.delta_bic_off_jumps))
             .collect();
         assert_eq!(ranked[0].effect, effect, "{v:?}: {names:?}");
         assert!(ranked[0].supported, "{v:?}: {names:?}");
