@@ -136,9 +136,9 @@ pub struct RankedCandidate {
     /// Its refit's raw `e2` over the current model's (not whitened): a
     /// refit beyond [`raw_e2_limit`] is not supported.
     pub raw_e2_ratio: f64,
-    /// Whether it pays for its parameters (BIC lower by more than 10, also
-    /// away from the reversals) with a raw `e2` no worse than the noise
-    /// explains.
+    /// Whether it pays for its parameters (BIC lower by more than 10, and
+    /// lower away from the reversals too) with a raw `e2` no worse than
+    /// the noise explains.
     pub supported: bool,
     /// The residual pattern it explains.
     pub signature: String,
@@ -730,14 +730,14 @@ pub fn rank_candidates(
     // Kept only where it fits better than the closed-form fit (above).
     let numeric_baseline = numeric_baseline.filter(|b| b.log_likelihood > fit.log_likelihood);
     let features_now = diagnosis_of(current, fit, data)?.features;
+    let numeric_current = current.clone().numerically();
     let features_numeric = match &numeric_baseline {
-        Some(b) => Some(diagnosis_of(&current.clone().numerically(), b, data)?.features),
+        Some(b) => Some(diagnosis_of(&numeric_current, b, data)?.features),
         None => None,
     };
     let mut out = Vec::new();
     for (c, score, refit, n_starts, agreeing, new) in refits {
         let physical_size = physical_size(&c.model, &refit.theta, &new);
-        let numeric_current = current.clone().numerically();
         let (fit, before, base_model) = match (&numeric_baseline, &features_numeric) {
             (Some(b), Some(f)) if !c.model.closed_form() => (b, f, &numeric_current),
             _ => (fit, &features_now, current),
