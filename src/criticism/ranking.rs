@@ -32,8 +32,9 @@
 //! current model's part of the best numerical refit when that is better.
 //!
 //! Candidates are ranked by BIC, best first. An effect is **supported**
-//! when it lowers BIC by more than 10 (Kass & Raftery's "very strong");
-//! otherwise it does not pay for its parameters.
+//! when it lowers BIC by more than 10 (Kass & Raftery's "very strong"),
+//! and lowers it on the samples away from the reversals too
+//! ([`super::off_jumps`]); otherwise it does not pay for its parameters.
 //!
 //! BIC, the maximised log-likelihood and the Laplace evidence are those of
 //! [`crate::inference::pipeline`], which `hbis fit` reports too; checked
