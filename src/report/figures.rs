@@ -1076,7 +1076,7 @@ fn draw_map<DB: DrawingBackend>(
     cb.configure_mesh()
         .disable_mesh()
         .disable_x_axis()
-        .y_label_formatter(&|v| format!("{v:.1e}"))
+        .y_label_formatter(&|v| bar_label(*v, scale))
         .y_desc("residual force (N/kg)")
         .label_style((FONT, 13))
         .axis_desc_style((FONT, 15))
@@ -1090,6 +1090,22 @@ fn draw_map<DB: DrawingBackend>(
     }))
     .map_err(e)?;
     root.present().map_err(e)
+}
+
+/// A colour bar's tick label: `0` where the tick generator's round-off
+/// leaves a zero as some 1e-18 (the residual map's bar read "6.9e-18").
+///
+/// ```
+/// use hbis::report::figures::bar_label;
+/// assert_eq!(bar_label(6.9e-18, 0.06), "0");
+/// assert_eq!(bar_label(-0.02, 0.06), "-2.0e-2");
+/// ```
+pub fn bar_label(v: f64, scale: f64) -> String {
+    if v.abs() <= 1e-9 * scale {
+        "0".into()
+    } else {
+        format!("{v:.1e}")
+    }
 }
 
 /// The SVG text of a figure: `draw` writes it to a temporary `.svg` file

@@ -284,7 +284,7 @@ pub fn write_diagnosis(
                 &r.map_u_edges,
                 &r.map_v_edges,
                 &r.map_force,
-                &format!("{name}: restoring-force residual"),
+                &format!("{name}: restoring-force residual (grey: no samples)"),
             )
         };
         out.write_with("residual-map.png", map)?;
