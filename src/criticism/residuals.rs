@@ -103,6 +103,10 @@ pub struct Spectrum {
     pub dominant_frequency_hz: f64,
     /// Its share of the residual power (within ±5 % of it).
     pub dominant_share: f64,
+    /// The share white noise puts in the same band (its frequency bins
+    /// over all): near the Nyquist frequency about a tenth, so only the
+    /// share above it marks a peak.
+    pub white_share: f64,
     /// Frequencies the model produces (its `f0, f1, f2`, Hz).
     pub model_frequencies_hz: Vec<f64>,
     /// Whether the dominant frequency is within 15 % of a model frequency or
@@ -346,12 +350,12 @@ pub fn diagnose(
         .unwrap_or(start);
     let f_dom = k_max as f64 * df;
     let total: f64 = power[1..].iter().sum();
-    let near: f64 = power
-        .iter()
-        .enumerate()
-        .filter(|(k, _)| (*k as f64 * df - f_dom).abs() <= 0.05 * f_dom.max(df))
-        .map(|(_, v)| v)
+    let in_band = |k: usize| (k as f64 * df - f_dom).abs() <= 0.05 * f_dom.max(df);
+    let near: f64 = (1..power.len())
+        .filter(|&k| in_band(k))
+        .map(|k| power[k])
         .sum();
+    let band = (1..power.len()).filter(|&k| in_band(k)).count();
     let mut freqs = vec![base.f0];
     if spec.spring != crate::model::SpringKind::Linear {
         freqs.push(base.f1);
@@ -367,6 +371,7 @@ pub fn diagnose(
     let spectrum = Spectrum {
         dominant_frequency_hz: f_dom,
         dominant_share: if total > 0.0 { near / total } else { 0.0 },
+        white_share: band as f64 / (power.len() - 1).max(1) as f64,
         model_frequencies_hz: freqs,
         model_can_produce: can,
     };
