@@ -30,8 +30,9 @@
 //! `rho`; `sigma` profiled on the kept samples.)
 
 use super::ranking::{CriticismError, ModelFit};
+use super::residuals::whiten;
 use crate::data::Aligned;
-use crate::inference::{Noise, Posterior};
+use crate::inference::Posterior;
 use crate::model::Model;
 
 /// The samples either side of each reversal, stop and start of `model`'s
@@ -62,21 +63,13 @@ pub fn log_likelihood_off(
     mask: &[bool],
 ) -> Result<(f64, usize), CriticismError> {
     let layout = Posterior::layout_for(model, fit.noise);
-    let rho = match fit.noise {
-        Noise::Ar1 => layout.values(&fit.theta, 1).first().copied().unwrap_or(0.0),
-        _ => 0.0,
-    };
+    let rho = layout.values(&fit.theta, 1).first().copied();
     let mut accel = vec![0.0; data.a.len()];
     data.model_accel_into(model, layout.values(&fit.theta, 0), &mut accel)?;
     let r: Vec<f64> = data.a.iter().zip(&accel).map(|(a, m)| a - m).collect();
-    let (mut s, mut m) = (0.0, 0usize);
-    for i in 1..r.len() {
-        if !(mask[i] || mask[i - 1]) {
-            let w = r[i] - rho * r[i - 1];
-            s += w * w;
-            m += 1;
-        }
-    }
+    let w = whiten(&r, rho);
+    let kept = (1..w.len()).filter(|&i| !(mask[i] || mask[i - 1]));
+    let (s, m) = kept.fold((0.0, 0usize), |(s, m), i| (s + w[i] * w[i], m + 1));
     Ok((-(m as f64) / 2.0 * (s / m as f64).ln(), m))
 }
 
@@ -116,6 +109,7 @@ pub fn delta_bic_of(before: f64, after: f64, k: usize, m: usize) -> f64 {
 mod tests {
     use super::*;
     use crate::data::Record;
+    use crate::inference::Noise;
     use crate::model::{ForwardModel, Params};
 
     /// Test 5 with a small alternating noise, `bump` added at sample `at`,

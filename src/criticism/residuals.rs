@@ -351,11 +351,9 @@ pub fn diagnose(
     let f_dom = k_max as f64 * df;
     let total: f64 = power[1..].iter().sum();
     let in_band = |k: usize| (k as f64 * df - f_dom).abs() <= 0.05 * f_dom.max(df);
-    let near: f64 = (1..power.len())
+    let (near, band) = (1..power.len())
         .filter(|&k| in_band(k))
-        .map(|k| power[k])
-        .sum();
-    let band = (1..power.len()).filter(|&k| in_band(k)).count();
+        .fold((0.0, 0usize), |(p, n), k| (p + power[k], n + 1));
     let mut freqs = vec![base.f0];
     if spec.spring != crate::model::SpringKind::Linear {
         freqs.push(base.f1);
