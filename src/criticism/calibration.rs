@@ -123,7 +123,8 @@ pub const HIDDEN: [Hidden; 8] = [
         start: "trilinear+lcfm+viscous",
         truth: "trilinear+lcfm+viscous+asymmetric-friction",
         // A constant force while sliding, which a shifted release absorbs
-        // (docs/components.md): it shows only where friction is strong.
+        // (docs/components.md): it shows only where friction grows with
+        // amplitude, and Tests 7 and 8 have the largest |rF0| of Table 8.1.
         draw: |rng, _| vec![("a_F", either_sign(rng, 0.45, 0.6))],
         columns: &[7, 8],
     },

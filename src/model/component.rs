@@ -279,7 +279,8 @@ pub enum FeatureKind {
     DecayRate,
     /// Acceleration jumps at reversals larger or smaller (friction there).
     JumpSize,
-    /// Jumps that differ by direction of sliding (asymmetric friction).
+    /// Jumps that differ by direction of sliding (a friction law whose
+    /// jump depends on the direction; `asymmetric-friction`'s does not).
     JumpDirection,
     /// A residual oscillation at a frequency the model cannot produce.
     SpectralPeak,

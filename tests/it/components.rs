@@ -238,6 +238,69 @@ fn hidden_asymmetric_friction_is_found() {
     });
 }
 
+/// Asymmetric friction's imprint is a period drift, and only where
+/// friction grows with amplitude (its module doc): on a quiet record
+/// (0.2 % noise, seed 330) with `rF0 = -0.03` the fit without it leaves a
+/// significant period drift, which its refit removes, and it is accepted;
+/// with `rF0 = 0` the shifted release absorbs it and it is not supported.
+/// (When it targeted the offset, it was refused on the first record: the
+/// offset went from 0.431 to 1.280.)
+#[test]
+fn asymmetric_friction_shows_as_a_period_drift_where_friction_grows_with_amplitude() {
+    let registry = Registry::builtin()
+        .with_candidates(&["asymmetric-friction"])
+        .unwrap();
+    let start = registry.parse("trilinear+lcfm+viscous").unwrap();
+    let truth = registry
+        .parse("trilinear+lcfm+viscous+asymmetric-friction")
+        .unwrap();
+    let mut p = Params {
+        u0: 0.1,
+        uy: 0.007,
+        uf0: 0.00225,
+        rf0: -0.03,
+        zeta0: 0.043,
+        f0: 0.536,
+        f1: 0.41,
+        f2: 0.21,
+        u3: 0.065,
+    };
+    for (rf0, added) in [(-0.03, true), (0.0, false)] {
+        p.rf0 = rf0;
+        let theta = truth.theta_from_params(&p, &[("a_F", 0.5)]).unwrap();
+        let (data, _) = record(&truth, &theta, 0.002, 330);
+        let (_, diagnosis, ranked) = diagnose_model(
+            &registry,
+            &start,
+            &data,
+            Noise::White,
+            &MapSettings::default(),
+            1,
+        )
+        .unwrap();
+        let drift = |fs: &[hbis::criticism::features::Feature]| {
+            fs.iter()
+                .find(|f| f.kind == hbis::model::FeatureKind::PeriodDrift)
+                .unwrap()
+                .clone()
+        };
+        let c = &ranked[0];
+        let after = drift(&diagnosis_of(&c.extended, &c.fit, &data).unwrap().features);
+        let before = drift(&diagnosis.features);
+        eprintln!(
+            "rF0 {rf0}: period drift {:.4} ({:.1} se) -> {:.4}; delta BIC {:+.1}; {}",
+            before.magnitude, before.z, after.magnitude, c.delta_bic, c.reason
+        );
+        assert_eq!(c.effect, "asymmetric-friction");
+        assert_eq!(c.accepted, added, "rF0 {rf0}: {}", c.reason);
+        if added {
+            assert!(before.significant && !after.significant);
+        } else {
+            assert!(!c.supported && !before.significant);
+        }
+    }
+}
+
 /// Friction that decays with travel looks like friction that grows with
 /// amplitude (`lcfm`) in a free vibration; beyond `lcfm` it shows only in
 /// a quiet record (0.3 % noise).
