@@ -153,3 +153,45 @@ fn a_gain_made_only_at_the_reversals_is_not_added() {
     );
     assert_eq!(real.accepted.as_deref(), Some("velocity-friction"));
 }
+
+/// A record of the out-of-sample run of 2026-11-29 (seed 372848, its
+/// record 71; stiffness degradation hidden, `kappa_k` 0.38) whose global
+/// fit of the start model ended in a poor basin with `uy` and `zeta0` on
+/// their prior bounds, some 1,390 nats below its best: no warm refit of a
+/// candidate left that basin (`degradation` gained nothing from `kappa_k`
+/// 0 to 1.5), and `asymmetric-friction` ranked first with BIC -383.8. A
+/// fit strained against a bound now gets a cold start for every
+/// candidate; the current fit improves from their basins, and the
+/// candidates are ranked again from it, so none ends far below the model
+/// it extends (which a refit warm-started at it cannot do).
+#[test]
+fn a_fit_strained_against_a_bound_is_searched_again() {
+    use hbis::criticism::calibration::make_record;
+    use hbis::criticism::{choose_noise, diagnose_model, fit_model};
+    use hbis::inference::MapSettings;
+    let registry = Registry::builtin();
+    let seed = 372_848 * 1_000_003 + 71;
+    let (start, data, _) =
+        make_record(&registry, hidden("degradation"), Sensor::Instant, seed).unwrap();
+    let settings = MapSettings::default();
+    let noise = choose_noise(&start, &data, &settings, seed ^ 0x0A17_0015)
+        .unwrap()
+        .chosen;
+    let first = fit_model(&start, &data, noise, None, &settings, seed).unwrap();
+    let (fit, _, ranked) =
+        diagnose_model(&registry, &start, &data, noise, &settings, seed).unwrap();
+    for c in &ranked {
+        eprintln!(
+            "{}: delta logL {:+.2}, delta BIC {:+.1}",
+            c.effect, c.delta_log_likelihood, c.delta_bic
+        );
+    }
+    eprintln!(
+        "seed {seed}: start fit logL {:.1}, after the ranking {:.1}",
+        first.log_likelihood, fit.log_likelihood
+    );
+    assert!(fit.log_likelihood > first.log_likelihood + 1000.0);
+    for c in &ranked {
+        assert!(c.delta_log_likelihood > -5.0, "{}", c.effect);
+    }
+}
