@@ -51,7 +51,7 @@ use thiserror::Error;
 use super::features::{Feature, FeatureKind};
 use super::off_jumps;
 use super::residuals::{diagnose, Diagnostics};
-use super::sanity::AT_BOUND;
+use super::sanity::bound_reached;
 use crate::data::Aligned;
 use crate::inference::pipeline::{
     compare, fit_map, laplace_evidence, Comparison, MapFit, PipelineError,
@@ -618,8 +618,7 @@ fn agreeing(fits: &[Refitted]) -> usize {
 }
 
 /// Whether a physical parameter of the current fit sits on a prior bound
-/// (within [`AT_BOUND`] of its range; a lower bound of 0, an absent
-/// effect, aside): the model strains against something it lacks, and the
+/// ([`bound_reached`], as the `at-bound` warning judges it): the model strains against something it lacks, and the
 /// record may need the candidate far from the current basin, where no
 /// warm start reaches. Then each candidate's refit also runs a cold,
 /// global search. On a calibration record with a hidden stiffness
@@ -627,10 +626,11 @@ fn agreeing(fits: &[Refitted]) -> usize {
 /// `uy` and `zeta0` on their bounds; the warm refits of `degradation`
 /// (from `kappa_k` 0 to 1.5) gained nothing, a cold fit 1,378 nats.
 fn strained(current: &Model, theta: &[f64]) -> bool {
-    current.bounds().iter().zip(theta).any(|(&(lo, hi), &x)| {
-        let tol = AT_BOUND * (hi - lo);
-        (x - lo <= tol && lo != 0.0) || hi - x <= tol
-    })
+    current
+        .bounds()
+        .iter()
+        .zip(theta)
+        .any(|(&(lo, hi), &x)| bound_reached(x, lo, hi).is_some())
 }
 
 /// Screens, refits and ranks every registered component absent from
@@ -1023,9 +1023,13 @@ fn worsened(targets: &[FeatureKind], before: &[Feature], after: &[Feature]) -> O
 /// added in its place. (A shrink of the colour alone is not enough:
 /// `velocity-friction` whitens part of a degrading stiffness.)
 fn whitened(before: &[Feature], after: &[Feature]) -> Option<(f64, f64)> {
-    let colour = |fs: &[Feature]| fs.iter().find(|f| f.kind == FeatureKind::Colour).cloned();
+    let colour = |fs: &[Feature]| {
+        fs.iter()
+            .find(|f| f.kind == FeatureKind::Colour)
+            .map(|f| (f.significant, f.magnitude))
+    };
     let (b, a) = (colour(before)?, colour(after)?);
-    (b.significant && !a.significant).then_some((b.magnitude, a.magnitude))
+    (b.0 && !a.0).then_some((b.1, a.1))
 }
 
 /// The kebab-case name of a feature kind (as in the JSON).
@@ -1148,7 +1152,11 @@ impl Gate {
     }
     /// The targeted feature at most [`SHRINK`] of its value.
     pub fn shrinks(&self) -> bool {
-        self.target_after <= SHRINK * self.target_before || self.whitens.is_some()
+        self.target_shrinks() || self.whitens.is_some()
+    }
+    /// The targeted feature itself at most [`SHRINK`] of its value.
+    fn target_shrinks(&self) -> bool {
+        self.target_after <= SHRINK * self.target_before
     }
     /// All four, and it stands in for nothing, pins no other parameter on a
     /// bound and leaves no new structure.
@@ -1225,7 +1233,7 @@ impl Gate {
         }
         if why.is_empty() {
             let shrink = match self.whitens {
-                Some((b, a)) if self.target_after > SHRINK * self.target_before => {
+                Some((b, a)) if !self.target_shrinks() => {
                     format!("the residual turns white (Ljung-Box Q from {b:.1} to {a:.1})")
                 }
                 _ => format!(

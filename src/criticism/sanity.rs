@@ -84,10 +84,30 @@ pub fn refits_at_budget(refits: &[(String, u64)]) -> Option<Warning> {
     })
 }
 
-/// `at-bound`, one per parameter whose MAP lies within [`AT_BOUND`] of its
-/// prior's range from a finite bound. A lower bound of exactly 0 is left
-/// out: there a parameter at the bound means the effect is absent (no
-/// damping, no friction slope), a result, not a failure.
+/// Which bound of the finite range `[lo, hi]` `x` lies within
+/// [`AT_BOUND`] of the range from, if any. A lower bound of exactly 0 is
+/// left out: there a parameter at the bound means the effect is absent
+/// (no damping, no friction slope), a result, not a failure.
+///
+/// ```
+/// use hbis::criticism::sanity::bound_reached;
+/// assert_eq!(bound_reached(0.0005, 0.0005, 0.05), Some(("lower", 0.0005)));
+/// assert_eq!(bound_reached(0.0, 0.0, 0.2), None);
+/// assert_eq!(bound_reached(0.2, 0.0, 0.2), Some(("upper", 0.2)));
+/// ```
+pub fn bound_reached(x: f64, lo: f64, hi: f64) -> Option<(&'static str, f64)> {
+    let tol = AT_BOUND * (hi - lo);
+    if x - lo <= tol && lo != 0.0 {
+        Some(("lower", lo))
+    } else if hi - x <= tol {
+        Some(("upper", hi))
+    } else {
+        None
+    }
+}
+
+/// `at-bound`, one per parameter whose MAP lies on a finite bound of its
+/// prior ([`bound_reached`]).
 pub fn at_bounds(names: &[String], theta: &[f64], priors: &Priors) -> Vec<Warning> {
     let mut out = Vec::new();
     for ((name, &x), p) in names.iter().zip(theta).zip(priors.priors()) {
@@ -95,15 +115,7 @@ pub fn at_bounds(names: &[String], theta: &[f64], priors: &Priors) -> Vec<Warnin
         if !(lo.is_finite() && hi.is_finite()) {
             continue;
         }
-        let tol = AT_BOUND * (hi - lo);
-        let side = if x - lo <= tol && lo != 0.0 {
-            Some(("lower", lo))
-        } else if hi - x <= tol {
-            Some(("upper", hi))
-        } else {
-            None
-        };
-        if let Some((side, b)) = side {
+        if let Some((side, b)) = bound_reached(x, lo, hi) {
             out.push(Warning {
                 code: "at-bound".into(),
                 message: format!(
