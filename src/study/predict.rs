@@ -595,19 +595,26 @@ pub fn fragility(
                 .map_err(|e| PredictError::Invalid(e.to_string()))?;
             let suite: Vec<(f64, &[f64])> =
                 scaled.iter().map(|m| (m.dt, m.ag.as_slice())).collect();
-            let p = predict_suite(model, draws, &suite, &opts)?;
-            let e = p.exceedance.expect("a capacity was given");
-            Ok(FragilityPoint {
-                pga_g: pga / G,
-                p_exceed: e.p,
-                ci_low: e.low,
-                ci_high: e.high,
-                effective_pairs: e.effective_n,
-                pairs: p.pairs.len(),
-                peak_displacement: p.summary.peak_displacement,
-            })
+            fragility_point(pga, &predict_suite(model, draws, &suite, &opts)?)
         })
         .collect()
+}
+
+/// The fragility point of a prediction `p` made with every motion at the
+/// peak ground acceleration `pga` (m/s^2) and a capacity.
+pub fn fragility_point(pga: f64, p: &Prediction) -> Result<FragilityPoint, PredictError> {
+    let e = p
+        .exceedance
+        .ok_or_else(|| PredictError::Invalid("a fragility point needs the capacity".into()))?;
+    Ok(FragilityPoint {
+        pga_g: pga / G,
+        p_exceed: e.p,
+        ci_low: e.low,
+        ci_high: e.high,
+        effective_pairs: e.effective_n,
+        pairs: p.pairs.len(),
+        peak_displacement: p.summary.peak_displacement,
+    })
 }
 
 fn extrapolation(

@@ -15,8 +15,8 @@ use crate::inference::proportion::Clustered;
 use crate::model::{ForwardModel, Model};
 use crate::report::outdir::{OutDir, OutError};
 use crate::study::predict::{
-    fragility, predict_suite, Draw, Extrapolation, FragilityPoint, PredictError, PredictOptions,
-    Prediction, Summary,
+    fragility, fragility_point, predict_suite, Draw, Extrapolation, FragilityPoint, PredictError,
+    PredictOptions, Prediction, Summary,
 };
 
 /// Why a prediction could not be run or written.
@@ -157,19 +157,38 @@ pub fn run_prediction(job: &PredictJob) -> Result<PredictOutcome, PredictError> 
                 "a fragility curve needs the capacity".into(),
             ))
         }
-        (false, Some(c)) => Some(fragility(
-            &job.model,
-            &job.draws,
-            &job.motions,
-            &job.fragility_pgas,
-            c,
-            &job.opts,
-        )?),
+        (false, Some(c)) => {
+            // The prediction itself is the curve's first point when its
+            // motions are already at that level (as `hbis predict --pga`
+            // makes them): one suite fewer to simulate.
+            let pgas = &job.fragility_pgas;
+            let reused = at_level(&job.motions, pgas[0])
+                .then(|| fragility_point(pgas[0], &prediction))
+                .transpose()?;
+            let rest = &pgas[usize::from(reused.is_some())..];
+            let mut points: Vec<FragilityPoint> = reused.into_iter().collect();
+            points.extend(fragility(
+                &job.model,
+                &job.draws,
+                &job.motions,
+                rest,
+                c,
+                &job.opts,
+            )?);
+            Some(points)
+        }
     };
     Ok(PredictOutcome {
         prediction,
         fragility,
     })
+}
+
+/// Whether every motion's peak ground acceleration is `pga` (to round-off).
+fn at_level(motions: &[GroundMotion], pga: f64) -> bool {
+    motions
+        .iter()
+        .all(|m| (m.pga() - pga).abs() <= 1e-12 * pga.abs())
 }
 
 fn motion_info(m: &GroundMotion, scale: f64) -> MotionInfo {
@@ -319,4 +338,94 @@ fn figures(
 #[cfg(not(feature = "figures"))]
 fn figures(_: &mut OutDir, _: &PredictJob, _: &PredictOutcome) -> Result<(), PredictionError> {
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::data::ground_motion::KanaiTajimi;
+    use crate::model::{Params, Registry};
+
+    fn job(scale: f64) -> PredictJob {
+        let model = Registry::builtin().parse("bilinear+coulomb").unwrap();
+        let p = Params::table_8_1(5).unwrap();
+        let draws = (0..4)
+            .map(|k| {
+                let mut q = p;
+                q.u0 *= 0.9 + 0.05 * k as f64;
+                Draw::new(model.theta_from_params(&q, &[]).unwrap())
+            })
+            .collect();
+        let kt = KanaiTajimi {
+            pga: 2.0,
+            duration: 15.0,
+            dt: 0.01,
+            ..Default::default()
+        };
+        let motions = kt
+            .suite(3, 5)
+            .unwrap()
+            .into_iter()
+            .map(|m| m.scaled(scale).unwrap())
+            .collect();
+        PredictJob {
+            model,
+            draws,
+            fit: None,
+            fit_seed: None,
+            params: None,
+            motions,
+            scale,
+            fragility_pgas: vec![2.0, 4.0],
+            seed: 5,
+            opts: PredictOptions {
+                capacity: Some(0.06),
+                ..Default::default()
+            },
+        }
+    }
+
+    /// With its motions at the curve's first level the prediction is the
+    /// first point (not simulated again); otherwise that level is simulated.
+    /// Either way the curve is the one [`fragility`] computes alone.
+    #[test]
+    fn the_fragility_curve_reuses_the_prediction_at_its_own_level() {
+        for scale in [1.0, 1.5] {
+            let job = job(scale);
+            let out = run_prediction(&job).unwrap();
+            let curve = out.fragility.unwrap();
+            let alone = fragility(
+                &job.model,
+                &job.draws,
+                &job.motions,
+                &job.fragility_pgas,
+                0.06,
+                &job.opts,
+            )
+            .unwrap();
+            assert_eq!(curve.len(), 2);
+            for (a, b) in curve.iter().zip(&alone) {
+                assert_eq!(a.pga_g, b.pga_g);
+                assert_eq!(
+                    (a.p_exceed, a.ci_low, a.ci_high),
+                    (b.p_exceed, b.ci_low, b.ci_high)
+                );
+                assert_eq!(a.pairs, b.pairs);
+                let (x, y) = (&a.peak_displacement, &b.peak_displacement);
+                assert!(
+                    (x.mean - y.mean).abs() <= 1e-12 * y.mean.abs(),
+                    "{} {}",
+                    x.mean,
+                    y.mean
+                );
+            }
+            let first = (curve[0].p_exceed, out.prediction.p_exceed_capacity.unwrap());
+            if scale == 1.0 {
+                assert!(at_level(&job.motions, 2.0));
+                assert_eq!(first.0, first.1);
+            } else {
+                assert!(!at_level(&job.motions, 2.0));
+            }
+        }
+    }
 }
