@@ -1000,8 +1000,9 @@ pub fn sample_posterior<D: LogDensity + ?Sized>(
     loop {
         let steps = chains[0].steps();
         if is_check(steps, settings.chunk) {
-            tau_max = max_tau(&chains, steps / 2);
-            verdict = stop_rule(&chains, tau_max, settings, steps);
+            let half = all_taus(&chains, steps / 2);
+            tau_max = largest(&half);
+            verdict = stop_rule(&chains, half, settings, steps);
         }
         let converged = verdict.converged;
         let target = target_steps(settings, tau_max, walkers * chains.len());
@@ -1121,16 +1122,26 @@ fn rhats(chains: &[Chain], burn: usize, dim: usize) -> Vec<f64> {
 /// The stop rule at a check: the kept chain long enough for its own `tau`
 /// estimate to be trusted (`trust_multiple` times it), then either
 /// `tau_multiple` times `tau` long or the ESS target reached, and split
-/// R-hat at most [`RHAT_MAX`] on every parameter. Burn-in comes from
-/// `tau_max`, the estimate on the second half; every condition is judged
-/// with `tau` estimated on the kept steps themselves, the window it is
-/// about. The reason lists every condition that fails, with its numbers.
-fn stop_rule(chains: &[Chain], tau_max: f64, settings: &SampleSettings, steps: usize) -> Verdict {
-    let burn = burn_in(tau_max, settings, steps);
+/// R-hat at most [`RHAT_MAX`] on every parameter. Burn-in comes from the
+/// largest of `half`, the estimates on the second half; every condition
+/// is judged with `tau` estimated on the kept steps themselves, the window
+/// it is about (`half` again when the burn-in is the first half). The
+/// reason lists every condition that fails, with its numbers.
+fn stop_rule(
+    chains: &[Chain],
+    half: Vec<Vec<f64>>,
+    settings: &SampleSettings,
+    steps: usize,
+) -> Verdict {
+    let burn = burn_in(largest(&half), settings, steps);
     let kept = (steps - burn) as f64;
     let dim = chains[0].dim();
-    let tau = all_taus(chains, burn);
-    let tau_kept = tau.iter().flatten().copied().fold(0.0, f64::max);
+    let tau = if burn == steps / 2 {
+        half
+    } else {
+        all_taus(chains, burn)
+    };
+    let tau_kept = largest(&tau);
     let mut reasons = Vec::new();
     let trust = settings.trust_multiple;
     if !at_least(kept, trust * tau_kept) {
@@ -1227,11 +1238,9 @@ fn last_check(steps: usize, chunk: usize) -> Option<usize> {
     last
 }
 
-fn max_tau(chains: &[Chain], from: usize) -> f64 {
-    all_taus(chains, from)
-        .into_iter()
-        .flatten()
-        .fold(0.0, f64::max)
+/// The largest of `tau[e][k]`.
+fn largest(tau: &[Vec<f64>]) -> f64 {
+    tau.iter().flatten().copied().fold(0.0, f64::max)
 }
 
 fn max_tau_range(chains: &[Chain], from: usize, to: usize) -> f64 {
