@@ -111,7 +111,7 @@ pub fn fit_map<M: ForwardModel + Clone, R: Rng + ?Sized>(
         if s.len() == posterior.dim() {
             s
         } else {
-            posterior.with_neutral_noise(&s)
+            posterior.with_noise_from_residual(&s)
         }
     });
     let mut map = find_map(&posterior, &from(settings, start)?, rng)?;

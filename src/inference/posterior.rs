@@ -189,6 +189,67 @@ impl<M: ForwardModel> Posterior<M> {
         theta
     }
 
+    /// `model` values followed by a start for the noise model read from
+    /// their residual: for AR(1), `rho` is the residual's lag-1
+    /// autocorrelation (its conditional maximum-likelihood value), kept
+    /// inside the prior's support. Started at `rho = 0` instead, the AR(1)
+    /// search of strongly coloured records often ended in a worse basin:
+    /// on three calibration null records with sensor noise it stood 66 to
+    /// 138 nats below the white fit's parameters with `rho` near 0.81.
+    /// The neutral values when the model cannot run there.
+    ///
+    /// # Formula
+    /// ```text
+    /// rho_0 = sum_t r_t r_(t-1) / sum_t r_(t-1)^2
+    /// ```
+    ///
+    /// ```
+    /// use hbis::data::Record;
+    /// use hbis::inference::{Noise, Posterior};
+    /// use hbis::model::{ForwardModel, Params, Registry};
+    /// use rand::{rngs::StdRng, SeedableRng};
+    /// use rand_distr::{Distribution, Normal};
+    ///
+    /// let model = Registry::builtin().parse("bilinear+coulomb")?;
+    /// let theta = model.theta_from_params(&Params::table_8_1(5).unwrap(), &[])?;
+    /// let mut a = vec![0.0; 2001];
+    /// model.accel_into(&theta, 0.005, &mut a)?;
+    /// // AR(1) noise, rho = 0.6.
+    /// let (mut rng, mut e) = (StdRng::seed_from_u64(3), 0.0);
+    /// let unit = Normal::new(0.0, 0.01)?;
+    /// for x in a.iter_mut() {
+    ///     e = 0.6 * e + unit.sample(&mut rng);
+    ///     *x += e;
+    /// }
+    /// let t = (0..2001).map(|i| i as f64 * 0.005).collect();
+    /// let data = Record::new(t, a)?.aligned(Some(0.0))?;
+    /// let post = Posterior::with_default_priors(model, data, Noise::Ar1)?;
+    /// let start = post.with_noise_from_residual(&theta);
+    /// // rho's standard error on 2,001 samples is about 0.018.
+    /// assert!((start[theta.len()] - 0.6).abs() < 0.08, "{}", start[theta.len()]);
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    pub fn with_noise_from_residual(&self, model: &[f64]) -> Vec<f64> {
+        let mut theta = self.with_neutral_noise(model);
+        if self.noise != Noise::Ar1 {
+            return theta;
+        }
+        let Ok(r) = self.residual(&theta) else {
+            return theta;
+        };
+        let lagged: f64 = r.windows(2).map(|w| w[1] * w[0]).sum();
+        let scale: f64 = r[..r.len().saturating_sub(1)].iter().map(|v| v * v).sum();
+        let rho = lagged / scale;
+        let k = model.len();
+        let (lo, hi) = self.priors.box_bounds();
+        // Strictly inside: the AR(1) density is zero at |rho| = 1.
+        let margin = 1e-3 * (hi[k] - lo[k]);
+        if rho.is_finite() {
+            theta[k] = rho.clamp(lo[k] + margin, hi[k] - margin);
+        }
+        theta
+    }
+
     /// The parameter names a model and noise model need, in order.
     pub fn names_for(model: &M, noise: Noise) -> Vec<String> {
         let mut names = model.param_names();

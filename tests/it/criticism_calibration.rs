@@ -222,3 +222,33 @@ fn a_refit_that_turns_the_residual_white_explains_it() {
     assert_eq!(o.accepted.as_deref(), Some("trilinear"), "{}", o.reason);
     assert!(o.reason.contains("turns white"), "{}", o.reason);
 }
+
+/// Two null records with sensor noise (AR(1) through a filter) of the
+/// out-of-sample run of commit bb57b25 (seed 86683, records 52 and 54)
+/// for which `--noise auto` chose white noise: the AR(1) search, started
+/// at `rho = 0` from the white fit, ended with a raw `e2` 2.06 and 4.04
+/// times the white fit's (66 to 138 nats below the white fit's parameters
+/// with `rho` near 0.81), beyond what the noise explains. Started from
+/// the residual's lag-1 correlation it reaches that basin and is chosen.
+#[test]
+fn coloured_sensor_noise_is_seen_from_a_start_at_the_residuals_correlation() {
+    use hbis::criticism::calibration::make_record;
+    use hbis::criticism::ranking::choose_noise;
+    use hbis::inference::{MapSettings, Noise};
+    let registry = Registry::builtin();
+    let run = |seed: u64| {
+        let (start, data, _) =
+            make_record(&registry, Kind::NullColoured, Sensor::Instant, seed).unwrap();
+        let c = choose_noise(&start, &data, &MapSettings::default(), seed ^ 0x0A17_0015).unwrap();
+        eprintln!(
+            "seed {seed}: chosen {:?}, rho {:.3}, raw e2 ratio {:.4} (limit {:.4}), BIC white {:.1}, AR(1) {:.1}",
+            c.chosen, c.rho, c.raw_e2_ratio, c.raw_e2_limit, c.bic_white, c.bic_ar1
+        );
+        c
+    };
+    let (a, b) = rayon::join(|| run(86683260054), || run(86683260064));
+    for c in [a, b] {
+        assert_eq!(c.chosen, Noise::Ar1);
+        assert!(c.raw_e2_ratio < 1.02, "{}", c.raw_e2_ratio);
+    }
+}
