@@ -8,10 +8,13 @@
 //! (a rate of 5 %) and the hidden effect first in at least 38 of 40. At a
 //! 5 % rate, two or more false discoveries in four null records happen
 //! with probability 1.4 %, and two misses in four hidden records too: the
-//! bounds below are those, at fixed seeds, for white-noise nulls and hidden
-//! effects. Null records with coloured, filtered sensor noise are not held
-//! to it: the full run measures how often the ladder adds an effect there
-//! (README), and this test only checks that `--noise auto` sees the colour.
+//! bounds below are those for white-noise nulls and hidden effects. Null
+//! records with coloured, filtered sensor noise are not held to it: the
+//! full run measures how often the ladder adds an effect there (README),
+//! and this test only checks that `--noise auto` sees the colour.
+//!
+//! The records are new at every commit (the seed comes from its hash and
+//! is printed; `HBIS_CALIBRATION_SEED=<seed>` replays a run).
 
 use hbis::criticism::calibration::{study, table, Kind, Sensor, HIDDEN};
 use hbis::model::Registry;
@@ -34,7 +37,9 @@ fn few_false_discoveries_and_hidden_effects_ranked_first() {
         hidden("degradation"),
         hidden("viscous"),
     ];
-    let outcomes = study(&Registry::builtin(), &kinds, Sensor::Instant, 11, &|_| {}).unwrap();
+    let (seed, from) = crate::common::commit_seed(11);
+    eprintln!("seed {seed} ({from}); replay: HBIS_CALIBRATION_SEED={seed}");
+    let outcomes = study(&Registry::builtin(), &kinds, Sensor::Instant, seed, &|_| {}).unwrap();
     eprintln!("{}", table(&outcomes));
     for o in &outcomes {
         eprintln!(
@@ -112,10 +117,16 @@ fn a_candidate_that_only_finds_a_better_basin_is_not_added() {
 /// crosses a sample instant; away from them both fitted worse. Beside it,
 /// the same run's record 44, with velocity friction hidden (`r_mu` 0.28,
 /// `v_t` 0.023 m/s), which must still be added: 58 of its 66 nats lie
-/// away from the reversals. Without the condition on the samples away
-/// from the reversals, the null gets `velocity-friction` again.
+/// away from the reversals.
+///
+/// Since AR(1) fits start `rho` at the residual's correlation (commit
+/// 680e10a) the null's gain is gone (its best candidate: BIC +10.6): it
+/// came from an AR(1) fit in a worse basin. The rule on the samples away
+/// from the reversals is checked by the `Gate` doctest (a gain of BIC
+/// -40 with +29.6 away from them is not supported) and its mechanics by
+/// `off_jumps`'s unit test; this test keeps both records' verdicts.
 #[test]
-fn a_gain_made_only_at_the_reversals_is_not_added() {
+fn the_records_behind_the_reversal_rule_keep_their_verdicts() {
     use hbis::criticism::calibration::criticise;
     let registry = Registry::builtin();
     let (null, real) = rayon::join(
@@ -145,12 +156,6 @@ fn a_gain_made_only_at_the_reversals_is_not_added() {
         );
     }
     assert!(!null.false_discovery(), "{:?}", null.accepted);
-    assert!(null.first_delta_bic < -10.0, "{}", null.first_delta_bic);
-    assert!(
-        null.reason.contains("away from the reversals"),
-        "{}",
-        null.reason
-    );
     assert_eq!(real.accepted.as_deref(), Some("velocity-friction"));
 }
 

@@ -153,3 +153,35 @@ pub fn noisy_record(
     let floor = sse / data.energy();
     (syn, data, floor)
 }
+
+/// A seed new at every commit, and where it came from: the first eight
+/// hexadecimal digits of `git rev-parse HEAD` modulo 10^6 (the convention
+/// of the dated calibration runs in docs/criticism.md), or the environment
+/// variable `HBIS_CALIBRATION_SEED` to replay a run; `fallback` outside a
+/// git checkout.
+pub fn commit_seed(fallback: u64) -> (u64, String) {
+    if let Ok(s) = std::env::var("HBIS_CALIBRATION_SEED") {
+        let seed = s
+            .parse()
+            .unwrap_or_else(|_| panic!("HBIS_CALIBRATION_SEED `{s}`: expected an integer"));
+        return (seed, "HBIS_CALIBRATION_SEED".into());
+    }
+    let head = std::process::Command::new("git")
+        .args(["rev-parse", "HEAD"])
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .ok()
+        .filter(|o| o.status.success())
+        .and_then(|o| String::from_utf8(o.stdout).ok());
+    match head
+        .as_deref()
+        .and_then(|h| h.get(..8))
+        .and_then(|h| u64::from_str_radix(h, 16).ok())
+    {
+        Some(x) => (
+            x % 1_000_000,
+            format!("commit {}", head.unwrap_or_default().trim()),
+        ),
+        None => (fallback, "no git checkout: the fallback".into()),
+    }
+}
