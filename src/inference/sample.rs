@@ -1244,18 +1244,16 @@ fn largest(tau: &[Vec<f64>]) -> f64 {
 }
 
 fn max_tau_range(chains: &[Chain], from: usize, to: usize) -> f64 {
-    chains
+    let tau: Vec<Vec<f64>> = chains
         .par_iter()
         .map(|c| {
             (0..c.dim())
                 .into_par_iter()
                 .map(|k| effective_time(&c.series_range(k, from, to)))
-                .collect::<Vec<f64>>()
+                .collect()
         })
-        .collect::<Vec<_>>()
-        .into_iter()
-        .flatten()
-        .fold(0.0, f64::max)
+        .collect();
+    largest(&tau)
 }
 
 /// `tau[e][k]` of every ensemble and parameter, in parallel (each value is
