@@ -30,6 +30,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let nulls: usize = args.first().map_or(Ok(20), |s| s.parse())?;
     let per_effect: usize = args.get(1).map_or(Ok(5), |s| s.parse())?;
     let seed: u64 = args.get(2).map_or(Ok(2026), |s| s.parse())?;
+    let per_outside: usize = args.get(4).map_or(Ok(per_effect), |s| s.parse())?;
     let clock = std::time::Instant::now();
     let line = |o: &Outcome| {
         eprintln!(
@@ -46,7 +47,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     };
     let outcomes = study(
         &Registry::builtin(),
-        &standard(nulls, per_effect),
+        &standard(nulls, per_effect, per_outside),
         sensor,
         seed,
         &line,

@@ -9,13 +9,19 @@
 //! - **Hidden records**: the truth is a start model plus one catalog
 //!   component ([`HIDDEN`]), at a random parameter set and a random size of
 //!   the effect, with white noise of 1.5 % of the peak.
+//! - **Out-of-catalog records**: the truth is the start model with physics
+//!   the catalog does not offer ([`OUTSIDE`]: a viscoelastic memory force,
+//!   a smooth Bouc-Wen spring, friction that falls as the slider heats and
+//!   recovers as it cools), of a random size, with white noise of 1.5 %
+//!   of the peak. Any effect added to one is a false addition: a stand-in.
 //!
 //! Every record is criticised as `hbis diagnose --noise auto` does it: the
 //! noise model is chosen by BIC at the start model ([`choose_noise`]), then
 //! the candidates are refitted and ranked ([`diagnose_model`], the
-//! ladder's first step). A null record's outcome is a false discovery when
-//! a candidate is *accepted* (the ladder would add it); a hidden record's
-//! outcome is right when the hidden effect ranks first.
+//! ladder's first step). A null or out-of-catalog record's outcome is a
+//! false discovery when a candidate is *accepted* (the ladder would add
+//! it); a hidden record's effect is found when it ranks first, and
+//! recovered when it is the one accepted.
 //!
 //! Each record depends only on the study's seed and its index, so the
 //! result does not depend on the number of threads.
@@ -31,6 +37,7 @@ use thiserror::Error;
 use super::ranking::{choose_noise, diagnose_model, CriticismError};
 use crate::data::{Aligned, Record, RecordError};
 use crate::inference::{MapSettings, Noise};
+use crate::model::effect_file::{EffectFileError, FileEffect};
 use crate::model::{
     ForwardModel, Model, ParamError, ParamName, Params, Registry, SimError, SpecError,
 };
@@ -53,6 +60,9 @@ pub enum CalibrationError {
     /// The criticism failed.
     #[error(transparent)]
     Criticism(#[from] CriticismError),
+    /// An out-of-catalog truth's effect file was refused.
+    #[error("calibration effect file")]
+    EffectFile(#[from] EffectFileError),
 }
 
 /// Record length and sampling of every calibration record: 10 s at 200 Hz.
@@ -161,6 +171,81 @@ pub const HIDDEN: [Hidden; 8] = [
     },
 ];
 
+/// Physics outside the default catalog that makes an out-of-catalog
+/// record: its name, the truth, and how its size is drawn around a random
+/// parameter set.
+pub struct Outside {
+    /// Its name (the component or effect file that makes it).
+    pub effect: &'static str,
+    /// What it is, physically.
+    pub physics: &'static str,
+    /// The model that makes the record (the start model is
+    /// `trilinear+lcfm+viscous`).
+    pub truth: &'static str,
+    /// Its parameters, on the random parameter set `p`.
+    pub draw: fn(&mut StdRng, &Params) -> Vec<(&'static str, f64)>,
+}
+
+/// `lo..hi` drawn uniformly on a log scale (a time constant).
+fn log_uniform(rng: &mut StdRng, lo: f64, hi: f64) -> f64 {
+    rng.random_range(lo.ln()..hi.ln()).exp()
+}
+
+/// The friction-heating effect file of `examples/effects` (a state with
+/// memory: the temperature index of the sliding surface).
+pub const HEATING_EFFECT: &str = include_str!("../../examples/effects/friction-heating.toml");
+
+/// The out-of-catalog physics, one a kind, with sizes drawn from stated
+/// ranges rather than chosen to be visible:
+/// - `maxwell`: a viscoelastic rubber, `r_m` uniform in [0.05, 0.3] of the
+///   initial stiffness through a relaxation of `tau_m` log-uniform in
+///   [0.1, 1.5] s (the range of `examples/memory_records.rs`);
+/// - `bouc-wen`: the rubber's spring smooth instead of tri-linear, at the
+///   parameter set's `f0`, `f2` and `uy`, sharpness `n` uniform in [1, 3]
+///   and `beta` uniform in [0.3, 0.7];
+/// - `friction-heating`: friction `F_F / (1 + T)` with `dT/dt = h_T |u'| -
+///   T / tau_T`, `h_T` log-uniform in [0.3, 3] per metre of sliding and
+///   `tau_T` log-uniform in [0.5, 5] s (a surface that cools within a few
+///   swings; with a far longer `tau_T` heating is the catalog's travel
+///   law, `friction-decay`).
+pub const OUTSIDE: [Outside; 3] = [
+    Outside {
+        effect: "maxwell",
+        physics: "a viscoelastic (Maxwell) memory force in the rubber",
+        truth: "trilinear+lcfm+viscous+maxwell",
+        draw: |rng, _| {
+            vec![
+                ("r_m", rng.random_range(0.05..0.3)),
+                ("tau_m", log_uniform(rng, 0.1, 1.5)),
+            ]
+        },
+    },
+    Outside {
+        effect: "bouc-wen",
+        physics: "a smooth hysteretic (Bouc-Wen) rubber spring",
+        truth: "bouc-wen+lcfm+viscous",
+        draw: |rng, p| {
+            vec![
+                ("f2", p.f2),
+                ("uy", p.uy),
+                ("n", rng.random_range(1.0..3.0)),
+                ("beta", rng.random_range(0.3..0.7)),
+            ]
+        },
+    },
+    Outside {
+        effect: "friction-heating",
+        physics: "friction that falls as the slider heats and recovers as it cools",
+        truth: "trilinear+lcfm+viscous+friction-heating",
+        draw: |rng, _| {
+            vec![
+                ("h_T", log_uniform(rng, 0.3, 3.0)),
+                ("tau_T", log_uniform(rng, 0.5, 5.0)),
+            ]
+        },
+    },
+];
+
 /// A random parameter set around a Table 8.1 column: every parameter
 /// times a factor in [0.75, 1.25], `f1` and `f2` kept below `0.95 f0` (the spring
 /// softens after yield), `u3` below `0.8 u0` (the release reaches the third
@@ -246,6 +331,8 @@ pub enum Kind {
     NullColoured,
     /// One hidden effect (index into [`HIDDEN`]).
     Hidden(usize),
+    /// Physics outside the catalog (index into [`OUTSIDE`]).
+    Outside(usize),
 }
 
 /// The accelerometer's sampling in a study: every record is made, and
@@ -280,9 +367,12 @@ pub struct Outcome {
     pub seed: u64,
     /// The sensor that made it and that every fit assumes.
     pub sensor: Sensor,
-    /// The effect hidden in it (`None` for a null record).
+    /// The catalog effect hidden in it (`None` for a null or an
+    /// out-of-catalog record).
     pub hidden: Option<String>,
-    /// The hidden effect's parameters (name, value).
+    /// The out-of-catalog physics in it ([`OUTSIDE`]'s name).
+    pub outside: Option<String>,
+    /// The hidden or out-of-catalog effect's parameters (name, value).
     pub hidden_values: Vec<(String, f64)>,
     /// The noise model `--noise auto` chose.
     pub noise: Noise,
@@ -297,13 +387,18 @@ pub struct Outcome {
 }
 
 impl Outcome {
-    /// A null record to which the ladder would add an effect.
+    /// A null or out-of-catalog record to which the ladder would add an
+    /// effect.
     pub fn false_discovery(&self) -> bool {
         self.hidden.is_none() && self.accepted.is_some()
     }
     /// A hidden effect ranked first.
     pub fn found(&self) -> bool {
         self.hidden.is_some() && self.first == self.hidden
+    }
+    /// A hidden effect that the ladder would add.
+    pub fn recovered(&self) -> bool {
+        self.hidden.is_some() && self.accepted == self.hidden
     }
 }
 
@@ -338,6 +433,17 @@ pub fn make_record(
                 values,
             )
         }
+        Kind::Outside(k) => {
+            let o = &OUTSIDE[k];
+            let p = random_truth(&mut rng, &[3, 5, 6, 7, 8]);
+            let values = (o.draw)(&mut rng, &p);
+            (
+                sensor.model(registry, "trilinear+lcfm+viscous")?,
+                sensor.model(&truth_registry(registry)?, o.truth)?,
+                p,
+                values,
+            )
+        }
     };
     let theta = truth_model.theta_from_params(&p, &values)?;
     let mut clean = vec![0.0; N];
@@ -353,6 +459,19 @@ pub fn make_record(
     let data = Record::new(t, a)?.aligned(None)?;
     let values = values.iter().map(|(n, v)| (n.to_string(), *v)).collect();
     Ok((start, data, values))
+}
+
+/// `registry` with the out-of-catalog effect files registered, to make
+/// records with (criticism keeps `registry` itself).
+fn truth_registry(registry: &Registry) -> Result<Registry, CalibrationError> {
+    let mut r = registry.clone();
+    if r.get("friction-heating").is_none() {
+        r.register_file_effect(FileEffect::from_toml(
+            HEATING_EFFECT,
+            "friction-heating.toml",
+        )?)?;
+    }
+    Ok(r)
 }
 
 /// Criticises one record as `hbis diagnose --noise auto` does.
@@ -378,6 +497,10 @@ pub fn criticise(
             Kind::Hidden(k) => Some(HIDDEN[k].effect.to_string()),
             _ => None,
         },
+        outside: match kind {
+            Kind::Outside(k) => Some(OUTSIDE[k].effect.to_string()),
+            _ => None,
+        },
         hidden_values,
         noise,
         first: ranked.first().map(|c| c.effect.clone()),
@@ -388,8 +511,9 @@ pub fn criticise(
 }
 
 /// The records of the standard study: `nulls` null records of each noise
-/// kind, then `per_effect` records of each hidden effect.
-pub fn standard(nulls: usize, per_effect: usize) -> Vec<Kind> {
+/// kind, `per_effect` records of each hidden effect, then `per_outside`
+/// of each out-of-catalog physics.
+pub fn standard(nulls: usize, per_effect: usize, per_outside: usize) -> Vec<Kind> {
     let mut kinds = Vec::new();
     for _ in 0..nulls {
         kinds.push(Kind::NullWhite);
@@ -397,6 +521,9 @@ pub fn standard(nulls: usize, per_effect: usize) -> Vec<Kind> {
     }
     for k in 0..HIDDEN.len() {
         kinds.extend(std::iter::repeat_n(Kind::Hidden(k), per_effect));
+    }
+    for k in 0..OUTSIDE.len() {
+        kinds.extend(std::iter::repeat_n(Kind::Outside(k), per_outside));
     }
     kinds
 }
@@ -425,16 +552,18 @@ pub fn study(
         .collect()
 }
 
-/// The table of a study: false discoveries by noise kind, hidden effects
-/// ranked first and accepted by effect.
+/// The table of a study: false discoveries by noise kind and by
+/// out-of-catalog physics, hidden effects ranked first and accepted by
+/// effect, then the rates with Clopper-Pearson 95 % intervals.
 pub fn table(outcomes: &[Outcome]) -> String {
     let mut out =
         String::from("records                       n  first  accepted  false discoveries\n");
+    let of = |kind: Kind| -> Vec<&Outcome> { outcomes.iter().filter(|o| o.kind == kind).collect() };
     for (label, kind) in [
         ("null, white noise", Kind::NullWhite),
         ("null, sensor noise", Kind::NullColoured),
     ] {
-        let g: Vec<&Outcome> = outcomes.iter().filter(|o| o.kind == kind).collect();
+        let g = of(kind);
         let ar1 = g.iter().filter(|o| o.noise == Noise::Ar1).count();
         out.push_str(&format!(
             "{label:27} {:>3}      -         -  {:>3}   (AR(1) chosen in {ar1})\n",
@@ -443,35 +572,72 @@ pub fn table(outcomes: &[Outcome]) -> String {
         ));
     }
     for (k, h) in HIDDEN.iter().enumerate() {
-        let g: Vec<&Outcome> = outcomes
-            .iter()
-            .filter(|o| o.kind == Kind::Hidden(k))
-            .collect();
-        if g.is_empty() {
-            continue;
+        let g = of(Kind::Hidden(k));
+        if !g.is_empty() {
+            out.push_str(&format!(
+                "hidden {:20} {:>3}    {:>3}       {:>3}\n",
+                h.effect,
+                g.len(),
+                g.iter().filter(|o| o.found()).count(),
+                g.iter().filter(|o| o.recovered()).count()
+            ));
         }
-        out.push_str(&format!(
-            "hidden {:20} {:>3}    {:>3}       {:>3}\n",
-            h.effect,
-            g.len(),
-            g.iter().filter(|o| o.found()).count(),
-            g.iter()
-                .filter(|o| o.accepted.as_deref() == Some(h.effect))
-                .count()
-        ));
     }
-    let hidden: Vec<&Outcome> = outcomes.iter().filter(|o| o.hidden.is_some()).collect();
-    let nulls: Vec<&Outcome> = outcomes.iter().filter(|o| o.hidden.is_none()).collect();
-    out.push_str(&format!(
-        "all null records: {} of {} with an effect added; all hidden: {} of {} ranked first, {} accepted\n",
-        nulls.iter().filter(|o| o.false_discovery()).count(),
-        nulls.len(),
-        hidden.iter().filter(|o| o.found()).count(),
-        hidden.len(),
-        hidden
-            .iter()
-            .filter(|o| o.accepted.is_some() && o.accepted == o.hidden)
-            .count()
+    for (k, o) in OUTSIDE.iter().enumerate() {
+        let g = of(Kind::Outside(k));
+        if !g.is_empty() {
+            let added: Vec<&str> = g.iter().filter_map(|o| o.accepted.as_deref()).collect();
+            out.push_str(&format!(
+                "outside {:19} {:>3}      -         -  {:>3}{}\n",
+                o.effect,
+                g.len(),
+                added.len(),
+                if added.is_empty() {
+                    String::new()
+                } else {
+                    format!("   ({})", added.join(", "))
+                }
+            ));
+        }
+    }
+    let rate = |label: &str, k: usize, n: usize| -> String {
+        if n == 0 {
+            return String::new();
+        }
+        let (lo, hi) = crate::inference::proportion::clopper_pearson(k as f64, n as f64, 0.95);
+        format!(
+            "{label}: {k} of {n} ({:.1} %, 95 % interval {:.1}-{:.1} %)\n",
+            100.0 * k as f64 / n as f64,
+            100.0 * lo,
+            100.0 * hi
+        )
+    };
+    let count = |f: &dyn Fn(&Outcome) -> bool| outcomes.iter().filter(|o| f(o)).count();
+    let nulls = count(&|o| matches!(o.kind, Kind::NullWhite | Kind::NullColoured));
+    let outside = count(&|o| o.outside.is_some());
+    let hidden = count(&|o| o.hidden.is_some());
+    let fd_nulls = count(&|o| o.outside.is_none() && o.false_discovery());
+    let fd_outside = count(&|o| o.outside.is_some() && o.false_discovery());
+    out.push_str(&rate("false additions, null records", fd_nulls, nulls));
+    out.push_str(&rate(
+        "false additions, out-of-catalog records",
+        fd_outside,
+        outside,
+    ));
+    out.push_str(&rate(
+        "false additions, both",
+        fd_nulls + fd_outside,
+        nulls + outside,
+    ));
+    out.push_str(&rate(
+        "hidden effects ranked first",
+        count(&|o| o.found()),
+        hidden,
+    ));
+    out.push_str(&rate(
+        "hidden effects recovered (accepted)",
+        count(&|o| o.recovered()),
+        hidden,
     ));
     out
 }
