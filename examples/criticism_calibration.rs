@@ -1,17 +1,21 @@
 //! Calibration of model criticism (`hbis::criticism::calibration`): null
 //! records (the truth is the start model; white noise, and coloured,
-//! filtered, quantised sensor noise) and records with one hidden catalog
-//! effect, each criticised as `hbis diagnose --noise auto` does it. Prints
-//! a line per record as it finishes, then the table.
+//! filtered, quantised sensor noise), records with one hidden catalog
+//! effect, and records with physics outside the catalog (a memory force,
+//! a smooth hysteretic spring, friction heating), each criticised as
+//! `hbis diagnose --noise auto` does it. Prints a line per record as it
+//! finishes, then the table with the rates and their Clopper-Pearson 95 %
+//! intervals.
 //!
 //! ```sh
-//! cargo run --release --features examples --example criticism_calibration -- 20 5 2026 [outcomes.json] [sensor=averaging]
+//! cargo run --release --features examples --example criticism_calibration -- 20 5 2026 [outcomes.json] [OUTSIDE] [sensor=averaging]
 //! ```
 //! Arguments: null records per noise kind (20), records per hidden effect
 //! (5; eight effects), seed (2026), optionally a file for the outcomes as
-//! JSON, and `sensor=averaging` to make every record, and fit every model,
-//! with the averaging sensor. The table in the README came from that
-//! command.
+//! JSON, records per out-of-catalog physics (three kinds; as many as per
+//! hidden effect unless given), and `sensor=averaging` to make every
+//! record, and fit every model, with the averaging sensor. The tables in
+//! the README and docs/criticism.md came from that command.
 
 use hbis::criticism::calibration::{standard, study, table, Outcome, Sensor};
 use hbis::model::Registry;
