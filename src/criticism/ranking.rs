@@ -49,7 +49,6 @@ use serde::Serialize;
 use thiserror::Error;
 
 use super::features::{Feature, FeatureKind};
-use super::missing_form::{missing_form, MissingForm};
 use super::off_jumps;
 use super::residuals::{diagnose, Diagnostics};
 use super::sanity::bound_reached;
@@ -788,7 +787,6 @@ fn rank_from(
         None => None,
     };
     let mut out = Vec::new();
-    let mut gates = Vec::new();
     for (c, score, refit, n_starts, agreeing, new) in refits {
         let physical_size = physical_size(&c.model, &refit.theta, &new);
         let (fit, before, base_model) = match (&numeric_baseline, &features_numeric) {
@@ -828,7 +826,6 @@ fn rank_from(
             stands_in,
             pins: pinned(current, fit.model_theta(current), &c.model, &refit.theta),
             worsens: worsened(&targets, before, &after),
-            outdone: None,
             raw_e2_ratio: refit.e2 / fit.e2,
             raw_e2_limit: raw_e2_limit(fit, data.a.len()),
             delta_bic,
@@ -839,7 +836,6 @@ fn rank_from(
             target_after,
             whitens: whitened(before, &after),
         };
-        gates.push((gate.clone(), targets.clone()));
         out.push(RankedCandidate {
             targets: c.targets.clone(),
             evidence_supports: gate.evidence(),
@@ -870,67 +866,10 @@ fn rank_from(
             extended: c.model.clone(),
         });
     }
-    // Only a candidate that would be added is held against the
-    // residual's own form: the form costs a refit of its own.
-    if gates.iter().any(|(g, _)| g.accepted()) {
-        let form = missing_form(current, fit, data, settings)?;
-        for (c, (gate, targets)) in out.iter_mut().zip(&mut gates) {
-            if gate.accepted() {
-                gate.outdone = outdone_by_form(&form, gate.delta_bic);
-                c.accepted = gate.accepted();
-                c.reason = with_budget_note(gate.reason(targets), &c.fit);
-            }
-        }
-    }
     out.sort_by(|a, b| a.delta_bic.total_cmp(&b.delta_bic));
     Ok(Ranking {
         candidates: out,
         current: fit.clone(),
-    })
-}
-
-/// Kinds of term in a missing form ([`MissingForm`]) that no default
-/// catalog candidate produces: a force with memory (a viscoelastic
-/// rubber) and a smooth hysteretic one.
-const OUT_OF_CATALOG: [&str; 2] = ["memory", "hysteretic"];
-
-/// Why a candidate whose refit changes BIC by `delta_bic` stands in for
-/// physics outside the catalog: the residual's own form names a memory or
-/// hysteretic force, and refitted with it the current model's BIC falls
-/// by more than [`SUPPORT`] below the candidate's. On three records with a
-/// Maxwell element (calibration seed 552985, 2026-11-29)
-/// `friction-decay` was added with BIC -12.5 to -31.5 while the form, a
-/// memory term with a time constant 0.15-1.04 s against the truth's
-/// 0.19-0.94 s, reached -124.7 to -462.4; on eight records with a hidden
-/// catalog effect the form did no better than the effect (or had no
-/// memory term).
-///
-/// ```
-/// use hbis::criticism::missing_form::{MissingForm, Term};
-/// use hbis::criticism::ranking::outdone_by_form;
-/// let term = |kind| Term { kind, expression: "u - q".into(), time_constant_s: Some(0.9), coefficient: 1.0, share: 0.1 };
-/// let form = MissingForm { terms: vec![term("memory")], delta_bic: Some(-194.1), ..MissingForm::none() };
-/// assert!(outdone_by_form(&form, -31.5).unwrap().contains("memory"));
-/// // Within SUPPORT of the candidate, or a catalog-like form: no verdict.
-/// assert!(outdone_by_form(&form, -190.0).is_none());
-/// let catalog_like = MissingForm { terms: vec![term("amplitude")], ..form.clone() };
-/// assert!(outdone_by_form(&catalog_like, -31.5).is_none());
-/// ```
-pub fn outdone_by_form(form: &MissingForm, delta_bic: f64) -> Option<String> {
-    let d = form.delta_bic?;
-    let term = form
-        .terms
-        .iter()
-        .find(|t| OUT_OF_CATALOG.contains(&t.kind))?;
-    (d < delta_bic - SUPPORT).then(|| {
-        format!(
-            "the residual's own form, a {} force (`{}`{}), refitted changes BIC by {d:+.1}, {:.1} beyond this candidate: it stands in for physics the catalog does not hold",
-            term.kind,
-            term.expression,
-            term.time_constant_s
-                .map_or(String::new(), |tc| format!(", time constant {tc:.2} s")),
-            delta_bic - d
-        )
     })
 }
 
@@ -1126,7 +1065,7 @@ fn shrink_of(targets: &[FeatureKind], before: &[Feature], after: &[Feature]) -> 
 ///
 /// ```
 /// use hbis::criticism::ranking::Gate;
-/// let g = Gate { physical_size: Some(4.0), stands_in: None, pins: None, worsens: None, outdone: None, raw_e2_ratio: 0.9, raw_e2_limit: 1.05, delta_bic: -40.0, delta_bic_off_jumps: Some(-35.0), delta_log_evidence: 12.0, moved_z: 6.0, target_before: 3.0, target_after: 1.0, whitens: None };
+/// let g = Gate { physical_size: Some(4.0), stands_in: None, pins: None, worsens: None, raw_e2_ratio: 0.9, raw_e2_limit: 1.05, delta_bic: -40.0, delta_bic_off_jumps: Some(-35.0), delta_log_evidence: 12.0, moved_z: 6.0, target_before: 3.0, target_after: 1.0, whitens: None };
 /// // A targeted structure that grows: not added, unless the residual turns white.
 /// let g3 = Gate { target_after: 4.0, ..g.clone() };
 /// assert!(!g3.accepted() && g3.reason(&[]).contains("goes from 3.000 to 4.000"));
@@ -1148,9 +1087,6 @@ fn shrink_of(targets: &[FeatureKind], before: &[Feature], after: &[Feature]) -> 
 /// // One that pins another parameter on its bound: not added.
 /// let g = Gate { physical_size: Some(4.0), pins: Some("puts `rF0` on its prior bound".into()), ..g.clone() };
 /// assert!(g.supported() && !g.accepted() && g.reason(&[]).contains("`rF0`"));
-/// // One that the residual's own form outdoes: not added.
-/// let g = Gate { pins: None, outdone: Some("the residual's own form ... stands in".into()), ..g.clone() };
-/// assert!(g.supported() && !g.accepted() && g.reason(&[]).starts_with("not added: the residual's own form"));
 /// ```
 #[derive(Debug, Clone)]
 pub struct Gate {
@@ -1165,9 +1101,6 @@ pub struct Gate {
     /// Set when the residual gains a significant structure it does not
     /// target.
     pub worsens: Option<String>,
-    /// Set when the residual's own form ([`outdone_by_form`]) names
-    /// physics the catalog lacks and explains the record better.
-    pub outdone: Option<String>,
     /// Its refit's raw `e2` over the current model's (not whitened).
     pub raw_e2_ratio: f64,
     /// The most [`Gate::raw_e2_ratio`] the noise explains ([`raw_e2_limit`]).
@@ -1235,7 +1168,6 @@ impl Gate {
             && self.stands_in.is_none()
             && self.pins.is_none()
             && self.worsens.is_none()
-            && self.outdone.is_none()
     }
     /// The reason, with the numbers (`targets` named).
     pub fn reason(&self, targets: &[FeatureKind]) -> String {
@@ -1293,7 +1225,7 @@ impl Gate {
                 100.0 * SHRINK
             ));
         }
-        for s in [&self.stands_in, &self.pins, &self.worsens, &self.outdone]
+        for s in [&self.stands_in, &self.pins, &self.worsens]
             .into_iter()
             .flatten()
         {
