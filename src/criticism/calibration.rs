@@ -69,6 +69,12 @@ pub enum CalibrationError {
 const DT: f64 = 0.005;
 /// See [`DT`].
 const N: usize = 2001;
+/// The paper's full model: the truth of the null records and the start
+/// model of most hidden and every out-of-catalog record.
+const PAPER: &str = "trilinear+lcfm+viscous";
+/// Table 8.1 columns the random parameter sets are drawn around, where a
+/// kind does not need others.
+const COLUMNS: &[u32] = &[3, 5, 6, 7, 8];
 /// Noise sd as a fraction of the record's peak |a|.
 pub const NOISE: f64 = 0.015;
 
@@ -104,7 +110,7 @@ fn either_sign(rng: &mut StdRng, lo: f64, hi: f64) -> f64 {
 pub const HIDDEN: [Hidden; 8] = [
     Hidden {
         effect: "velocity-friction",
-        start: "trilinear+lcfm+viscous",
+        start: PAPER,
         truth: "trilinear+lcfm+viscous+velocity-friction",
         draw: |rng, _| {
             vec![
@@ -112,25 +118,25 @@ pub const HIDDEN: [Hidden; 8] = [
                 ("v_t", rng.random_range(0.02..0.08)),
             ]
         },
-        columns: &[3, 5, 6, 7, 8],
+        columns: COLUMNS,
     },
     Hidden {
         effect: "offset",
-        start: "trilinear+lcfm+viscous",
+        start: PAPER,
         truth: "trilinear+lcfm+viscous+offset",
         draw: |rng, _| vec![("a_off", either_sign(rng, 0.01, 0.03))],
-        columns: &[3, 5, 6, 7, 8],
+        columns: COLUMNS,
     },
     Hidden {
         effect: "degradation",
-        start: "trilinear+lcfm+viscous",
+        start: PAPER,
         truth: "trilinear+lcfm+viscous+degradation",
         draw: |rng, _| vec![("kappa_k", rng.random_range(0.15..0.4))],
-        columns: &[3, 5, 6, 7, 8],
+        columns: COLUMNS,
     },
     Hidden {
         effect: "asymmetric-friction",
-        start: "trilinear+lcfm+viscous",
+        start: PAPER,
         truth: "trilinear+lcfm+viscous+asymmetric-friction",
         // A constant force while sliding, which a shifted release absorbs
         // (docs/components.md): it shows only where friction grows with
@@ -140,34 +146,34 @@ pub const HIDDEN: [Hidden; 8] = [
     },
     Hidden {
         effect: "friction-decay",
-        start: "trilinear+lcfm+viscous",
+        start: PAPER,
         truth: "trilinear+lcfm+viscous+friction-decay",
         draw: |rng, _| vec![("kappa_F", rng.random_range(1.5..3.0))],
-        columns: &[3, 5, 6, 7, 8],
+        columns: COLUMNS,
     },
     Hidden {
         effect: "trilinear",
         start: "bilinear+lcfm+viscous",
-        truth: "trilinear+lcfm+viscous",
+        truth: PAPER,
         draw: |_, _| Vec::new(),
-        columns: &[3, 5, 6, 7, 8],
+        columns: COLUMNS,
     },
     Hidden {
         effect: "lcfm",
         start: "trilinear+coulomb+viscous",
-        truth: "trilinear+lcfm+viscous",
+        truth: PAPER,
         draw: |rng, p| {
             p.rf0 = either_sign(rng, 0.01, 0.03);
             Vec::new()
         },
-        columns: &[3, 5, 6, 7, 8],
+        columns: COLUMNS,
     },
     Hidden {
         effect: "viscous",
         start: "trilinear+lcfm",
-        truth: "trilinear+lcfm+viscous",
+        truth: PAPER,
         draw: |_, _| Vec::new(),
-        columns: &[3, 5, 6, 7, 8],
+        columns: COLUMNS,
     },
 ];
 
@@ -418,8 +424,8 @@ pub fn make_record(
     let mut rng = StdRng::seed_from_u64(seed);
     let (start, truth_model, p, values) = match kind {
         Kind::NullWhite | Kind::NullColoured => {
-            let m = sensor.model(registry, "trilinear+lcfm+viscous")?;
-            let p = random_truth(&mut rng, &[3, 5, 6, 7, 8]);
+            let m = sensor.model(registry, PAPER)?;
+            let p = random_truth(&mut rng, COLUMNS);
             (m.clone(), m, p, Vec::new())
         }
         Kind::Hidden(k) => {
@@ -435,10 +441,10 @@ pub fn make_record(
         }
         Kind::Outside(k) => {
             let o = &OUTSIDE[k];
-            let p = random_truth(&mut rng, &[3, 5, 6, 7, 8]);
+            let p = random_truth(&mut rng, COLUMNS);
             let values = (o.draw)(&mut rng, &p);
             (
-                sensor.model(registry, "trilinear+lcfm+viscous")?,
+                sensor.model(registry, PAPER)?,
                 sensor.model(&truth_registry(registry)?, o.truth)?,
                 p,
                 values,
