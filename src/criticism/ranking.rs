@@ -49,6 +49,7 @@ use serde::Serialize;
 use thiserror::Error;
 
 use super::features::{Feature, FeatureKind};
+use super::missing_form::{missing_form, MissingForm};
 use super::off_jumps;
 use super::residuals::{diagnose, Diagnostics};
 use super::sanity::bound_reached;
@@ -58,6 +59,7 @@ use crate::inference::pipeline::{
 };
 use crate::inference::Polish;
 use crate::inference::{MapError, MapSettings, Noise, Posterior, PosteriorError, Priors};
+use crate::model::effect_file::FileEffect;
 use crate::model::{Candidate, ForwardModel, Model, Registry, SimError};
 
 /// Why a criticism step failed.
@@ -787,6 +789,8 @@ fn rank_from(
         None => None,
     };
     let mut out = Vec::new();
+    let mut form: Option<MissingForm> = None;
+    let fit_now = fit;
     for (c, score, refit, n_starts, agreeing, new) in refits {
         let physical_size = physical_size(&c.model, &refit.theta, &new);
         let (fit, before, base_model) = match (&numeric_baseline, &features_numeric) {
@@ -821,11 +825,12 @@ fn rank_from(
         };
         let (target_before, target_after) = shrink_of(&targets, before, &after);
         let stands_in = absorbed(&targets, before, &after);
-        let gate = Gate {
+        let mut gate = Gate {
             physical_size,
             stands_in,
             pins: pinned(current, fit.model_theta(current), &c.model, &refit.theta),
             worsens: worsened(&targets, before, &after),
+            remains: None,
             raw_e2_ratio: refit.e2 / fit.e2,
             raw_e2_limit: raw_e2_limit(fit, data.a.len()),
             delta_bic,
@@ -836,6 +841,25 @@ fn rank_from(
             target_after,
             whitens: whitened(before, &after),
         };
+        // Asked only of a candidate that would be added: it costs the
+        // missing form and two refits on the engine.
+        if gate.accepted() {
+            if form.is_none() {
+                form = Some(missing_form(current, fit_now, data, settings)?);
+            }
+            if let Some(form) = &form {
+                gate.remains = remains(
+                    current,
+                    fit,
+                    &c.model,
+                    &refit,
+                    form,
+                    data,
+                    &numeric_budget,
+                    seed ^ 0x5E_7A11,
+                )?;
+            }
+        }
         out.push(RankedCandidate {
             targets: c.targets.clone(),
             evidence_supports: gate.evidence(),
@@ -871,6 +895,79 @@ fn rank_from(
         candidates: out,
         current: fit.clone(),
     })
+}
+
+/// Set when the missing form of the current fit is led by a memory or
+/// hysteretic term (forces no catalog component makes:
+/// [`MissingForm::out_of_catalog`]), its such terms lower BIC by more than the
+/// candidate does, and with them in both models the candidate no longer
+/// lowers BIC by more than [`SUPPORT`]: it stood in for them. On two
+/// Maxwell records of the calibration (seed 552985) `friction-decay`
+/// lowered BIC by 12.5 and 31.5, the form's memory term by 124.2 and
+/// 241.9, and beside it `friction-decay` gained nothing. (Refusing a candidate
+/// whenever the whole form gains more refused `viscous` in the demo's
+/// ladder, whose start lacked two catalog effects.)
+#[allow(clippy::too_many_arguments)]
+fn remains(
+    current: &Model,
+    fit: &ModelFit,
+    candidate: &Model,
+    refit: &ModelFit,
+    form: &MissingForm,
+    data: &Aligned,
+    settings: &MapSettings,
+    seed: u64,
+) -> Result<Option<String>, CriticismError> {
+    let Some(ooc) = &form.out_of_catalog else {
+        return Ok(None);
+    };
+    let Ok(effect) = FileEffect::from_toml(&ooc.effect_file, "missing-form") else {
+        return Ok(None);
+    };
+    let effect = std::sync::Arc::new(effect);
+    let value = |name: &str| ooc.values.iter().find(|(n, _)| n == name).map(|v| v.1);
+    let start_of =
+        |model: &Model, from: &Model, theta: &[f64], extra: &dyn Fn(&str) -> Option<f64>| {
+            let layout = from.layout();
+            model.layout().theta_from(&|p| {
+                layout
+                    .get(theta, &p.name)
+                    .or_else(|| extra(&p.name))
+                    .unwrap_or(p.neutral)
+            })
+        };
+    let with = current.with_force(effect.clone());
+    let start = start_of(&with, current, fit.model_theta(current), &value);
+    let base = fit_model(&with, data, fit.noise, Some(start), settings, seed)?;
+    let form_gain = base.bic - fit.bic;
+    // The candidate explains more than the form's terms: it is no
+    // stand-in for them, even where the two overlap (a stiffness
+    // degradation and a memory force can, on one record).
+    if base.log_likelihood <= fit.log_likelihood || form_gain >= refit.bic - fit.bic {
+        return Ok(None);
+    }
+    // From the form's fit, the candidate's own parameters at their refit:
+    // the joint model nests it.
+    let both = candidate.with_force(effect);
+    let layout = with.layout();
+    let theta_base = base.model_theta(&with).to_vec();
+    let own = candidate.layout();
+    let theta_c = refit.model_theta(candidate).to_vec();
+    let start = both.layout().theta_from(&|p| {
+        layout
+            .get(&theta_base, &p.name)
+            .or_else(|| own.get(&theta_c, &p.name))
+            .unwrap_or(p.neutral)
+    });
+    let joint = fit_model(&both, data, fit.noise, Some(start), settings, seed ^ 1)?;
+    let delta = joint.bic - base.bic;
+    Ok((delta > -SUPPORT).then(|| {
+        format!(
+            "the missing form's {} lowers BIC by {:.1}, more than it does, and with that term in both models it changes BIC by {delta:+.1}, not below -{SUPPORT}: it stands in for a force the catalog does not hold",
+            ooc.description,
+            -form_gain
+        )
+    }))
 }
 
 /// `reason`, and whether the refit stopped at its evaluation budget.
@@ -1065,7 +1162,7 @@ fn shrink_of(targets: &[FeatureKind], before: &[Feature], after: &[Feature]) -> 
 ///
 /// ```
 /// use hbis::criticism::ranking::Gate;
-/// let g = Gate { physical_size: Some(4.0), stands_in: None, pins: None, worsens: None, raw_e2_ratio: 0.9, raw_e2_limit: 1.05, delta_bic: -40.0, delta_bic_off_jumps: Some(-35.0), delta_log_evidence: 12.0, moved_z: 6.0, target_before: 3.0, target_after: 1.0, whitens: None };
+/// let g = Gate { physical_size: Some(4.0), stands_in: None, pins: None, worsens: None, remains: None, raw_e2_ratio: 0.9, raw_e2_limit: 1.05, delta_bic: -40.0, delta_bic_off_jumps: Some(-35.0), delta_log_evidence: 12.0, moved_z: 6.0, target_before: 3.0, target_after: 1.0, whitens: None };
 /// // A targeted structure that grows: not added, unless the residual turns white.
 /// let g3 = Gate { target_after: 4.0, ..g.clone() };
 /// assert!(!g3.accepted() && g3.reason(&[]).contains("goes from 3.000 to 4.000"));
@@ -1087,6 +1184,10 @@ fn shrink_of(targets: &[FeatureKind], before: &[Feature], after: &[Feature]) -> 
 /// // One that pins another parameter on its bound: not added.
 /// let g = Gate { physical_size: Some(4.0), pins: Some("puts `rF0` on its prior bound".into()), ..g.clone() };
 /// assert!(g.supported() && !g.accepted() && g.reason(&[]).contains("`rF0`"));
+/// // One after which a memory force the catalog lacks still lowers BIC by
+/// // more than it did: a stand-in, not added.
+/// let g = Gate { pins: None, remains: Some("a memory term (tau 0.9 s) still lowers BIC by 400".into()), ..g.clone() };
+/// assert!(g.supported() && !g.accepted() && g.reason(&[]).contains("memory"));
 /// ```
 #[derive(Debug, Clone)]
 pub struct Gate {
@@ -1101,6 +1202,11 @@ pub struct Gate {
     /// Set when the residual gains a significant structure it does not
     /// target.
     pub worsens: Option<String>,
+    /// Set when it stands in for a force no catalog component makes: the
+    /// missing form's memory or hysteretic terms explain more, and beside
+    /// them it gains nothing (docs/criticism.md, "When an effect is
+    /// added", item 8).
+    pub remains: Option<String>,
     /// Its refit's raw `e2` over the current model's (not whitened).
     pub raw_e2_ratio: f64,
     /// The most [`Gate::raw_e2_ratio`] the noise explains ([`raw_e2_limit`]).
@@ -1168,6 +1274,7 @@ impl Gate {
             && self.stands_in.is_none()
             && self.pins.is_none()
             && self.worsens.is_none()
+            && self.remains.is_none()
     }
     /// The reason, with the numbers (`targets` named).
     pub fn reason(&self, targets: &[FeatureKind]) -> String {
@@ -1225,7 +1332,7 @@ impl Gate {
                 100.0 * SHRINK
             ));
         }
-        for s in [&self.stands_in, &self.pins, &self.worsens]
+        for s in [&self.stands_in, &self.pins, &self.worsens, &self.remains]
             .into_iter()
             .flatten()
         {

@@ -303,3 +303,29 @@ fn a_memory_force_gets_no_catalog_stand_in() {
     assert!(o.first_delta_bic < -50.0, "{}", o.first_delta_bic);
     assert!(!o.false_discovery(), "{:?}: {}", o.accepted, o.reason);
 }
+
+/// Another Maxwell record of that run (`r_m` 0.105, `tau_m` 0.66 s), on
+/// which `friction-decay` passed every other gate (BIC -31.5) and was
+/// added. The missing form of the start fit names a memory term that
+/// lowers BIC by far more, and with that term in both models
+/// `friction-decay` gains nothing: it is a stand-in and must be refused
+/// on that ground (`Gate::remains`).
+#[test]
+fn a_candidate_the_missing_forms_memory_term_explains_is_refused() {
+    use hbis::criticism::calibration::criticise;
+    let o = criticise(
+        &Registry::builtin(),
+        Kind::Outside(0),
+        Sensor::Instant,
+        552_986_659_078,
+    )
+    .unwrap();
+    eprintln!(
+        "{:?} {:?}: first {:?} ({:+.1}), accepted {:?}; {}",
+        o.outside, o.hidden_values, o.first, o.first_delta_bic, o.accepted, o.reason
+    );
+    assert_eq!(o.outside.as_deref(), Some("maxwell"));
+    assert!(o.first_delta_bic < -10.0, "{}", o.first_delta_bic);
+    assert!(!o.false_discovery(), "{:?}: {}", o.accepted, o.reason);
+    assert!(o.reason.contains("memory term"), "{}", o.reason);
+}
