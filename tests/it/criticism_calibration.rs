@@ -286,22 +286,28 @@ fn coloured_sensor_noise_is_seen_from_a_start_at_the_residuals_correlation() {
 /// not be added (nor anything else).
 #[test]
 fn a_memory_force_gets_no_catalog_stand_in() {
-    use hbis::criticism::calibration::criticise;
-    let o = criticise(
-        &Registry::builtin(),
-        Kind::Outside(0),
-        Sensor::Instant,
-        552_986_659_075,
-    )
-    .unwrap();
-    eprintln!(
-        "{:?} {:?}: first {:?} ({:+.1}), accepted {:?}; {}",
-        o.outside, o.hidden_values, o.first, o.first_delta_bic, o.accepted, o.reason
-    );
-    assert_eq!(o.outside.as_deref(), Some("maxwell"));
+    let o = maxwell_record(552_986_659_075);
     // The memory force shows: some catalog effect gains a lot.
     assert!(o.first_delta_bic < -50.0, "{}", o.first_delta_bic);
     assert!(!o.false_discovery(), "{:?}: {}", o.accepted, o.reason);
+}
+
+/// A Maxwell record of the run of 2026-11-29 (seed 552985), criticised as
+/// the calibration does; printed.
+fn maxwell_record(seed: u64) -> hbis::criticism::calibration::Outcome {
+    let o = hbis::criticism::calibration::criticise(
+        &Registry::builtin(),
+        Kind::Outside(0),
+        Sensor::Instant,
+        seed,
+    )
+    .unwrap();
+    eprintln!(
+        "{seed}: {:?} {:?}: first {:?} ({:+.1}), accepted {:?}; {}",
+        o.outside, o.hidden_values, o.first, o.first_delta_bic, o.accepted, o.reason
+    );
+    assert_eq!(o.outside.as_deref(), Some("maxwell"));
+    o
 }
 
 /// Another Maxwell record of that run (`r_m` 0.105, `tau_m` 0.66 s), on
@@ -312,19 +318,7 @@ fn a_memory_force_gets_no_catalog_stand_in() {
 /// on that ground (`Gate::remains`).
 #[test]
 fn a_candidate_the_missing_forms_memory_term_explains_is_refused() {
-    use hbis::criticism::calibration::criticise;
-    let o = criticise(
-        &Registry::builtin(),
-        Kind::Outside(0),
-        Sensor::Instant,
-        552_986_659_078,
-    )
-    .unwrap();
-    eprintln!(
-        "{:?} {:?}: first {:?} ({:+.1}), accepted {:?}; {}",
-        o.outside, o.hidden_values, o.first, o.first_delta_bic, o.accepted, o.reason
-    );
-    assert_eq!(o.outside.as_deref(), Some("maxwell"));
+    let o = maxwell_record(552_986_659_078);
     assert!(o.first_delta_bic < -10.0, "{}", o.first_delta_bic);
     assert!(!o.false_discovery(), "{:?}: {}", o.accepted, o.reason);
     assert!(o.reason.contains("memory term"), "{}", o.reason);

@@ -58,13 +58,15 @@ fn a_viscoelastic_rubber_is_described_as_a_memory_force() {
     for c in &ranked {
         println!("  {} dBIC {:+.1}: {}", c.effect, c.delta_bic, c.reason);
     }
-    // A catalog stand-in is still accepted here: `friction-decay` (BIC
-    // -45.6) passes every gate (docs/criticism.md, issue 35 item 2).
+    // `friction-decay` (BIC -45.6) passes the other gates, but beside the
+    // memory term the form leads with it gains nothing: no stand-in
+    // (docs/criticism.md, "When an effect is added", item 8).
     let stand_in = ranked
         .iter()
         .find(|c| c.accepted)
         .map(|c| c.effect.as_str());
     println!("accepted: {stand_in:?}");
+    assert_eq!(stand_in, None);
     let form = missing_form(&start, &fit, &data, &MapSettings::default()).unwrap();
     println!("{:?}", form.terms);
     let first = &form.terms[0];
