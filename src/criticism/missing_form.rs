@@ -444,43 +444,13 @@ fn sensitivity(
     )
 }
 
-/// The linear stage: the library's sensitivities on `fit` of `model`,
-/// whitened, and the terms stepwise regression chooses.
-struct Selection {
-    lib: Vec<(Column, DVector<f64>, Vec<f64>)>,
-    tangent: DMatrix<f64>,
-    tangent_cols: Vec<DVector<f64>>,
-    y: DVector<f64>,
-    /// Record minus model.
-    r: Vec<f64>,
-    u: Vec<f64>,
-    v: Vec<f64>,
-    t: Vec<f64>,
-    /// The chosen library indices, in the order they entered.
-    chosen: Vec<usize>,
-    /// The residual sum of squares before any term and after each.
-    rss_path: Vec<f64>,
-}
-
-impl Selection {
-    fn design(&self, chosen: &[usize]) -> DMatrix<f64> {
-        let mut cols = self.tangent_cols.clone();
-        cols.extend(chosen.iter().map(|&k| self.lib[k].1.clone()));
-        if cols.is_empty() {
-            DMatrix::zeros(self.y.len(), 0)
-        } else {
-            DMatrix::from_columns(&cols)
-        }
-    }
-}
-
-/// Library, sensitivities and stepwise selection on `fit` of `model`
-/// (`None`: no least-squares solution of the residual at all).
-fn select(
+/// The missing form of `fit` of `model` on `data`.
+pub fn missing_form(
     model: &Model,
     fit: &ModelFit,
     data: &Aligned,
-) -> Result<Option<Selection>, CriticismError> {
+    settings: &MapSettings,
+) -> Result<MissingForm, CriticismError> {
     let theta = fit.model_theta(model);
     let n = data.a.len();
     let mut accel = vec![0.0; n];
@@ -516,37 +486,35 @@ fn select(
             Some((c, DVector::from_vec(white(&s)), s))
         })
         .collect();
-    let mut sel = Selection {
-        lib,
-        tangent,
-        tangent_cols,
-        y,
-        r,
-        u,
-        v,
-        t,
-        chosen: Vec::new(),
-        rss_path: Vec::new(),
+    let design = |chosen: &[usize]| {
+        let mut cols = tangent_cols.clone();
+        cols.extend(chosen.iter().map(|&k| lib[k].1.clone()));
+        if cols.is_empty() {
+            DMatrix::zeros(n, 0)
+        } else {
+            DMatrix::from_columns(&cols)
+        }
     };
-    let Some((_, rss0)) = least_squares(&sel.design(&[]), &sel.y) else {
-        return Ok(None);
+    let none = MissingForm::none();
+    let Some((_, rss0)) = least_squares(&design(&[]), &y) else {
+        return Ok(none);
     };
-    sel.rss_path.push(rss0);
-    while sel.chosen.len() < MAX_TERMS {
-        let rss_now = *sel.rss_path.last().expect("rss0");
-        let lib = &sel.lib;
+    let mut chosen: Vec<usize> = Vec::new();
+    let mut rss_path = vec![rss0];
+    while chosen.len() < MAX_TERMS {
+        let rss_now = *rss_path.last().expect("rss0");
         let best = (0..lib.len())
-            .filter(|k| !sel.chosen.contains(k))
+            .filter(|k| !chosen.contains(k))
             // One memory and one hysteretic term at most: the effect
             // file has one state (and time constant) of each name.
             .filter(|&k| {
                 !(has_state(lib[k].0.kind)
-                    && sel.chosen.iter().any(|&c| lib[c].0.kind == lib[k].0.kind))
+                    && chosen.iter().any(|&c| lib[c].0.kind == lib[k].0.kind))
             })
             .filter_map(|k| {
-                let mut with = sel.chosen.clone();
+                let mut with = chosen.clone();
                 with.push(k);
-                least_squares(&sel.design(&with), &sel.y).map(|(_, rss)| (k, rss))
+                least_squares(&design(&with), &y).map(|(_, rss)| (k, rss))
             })
             .min_by(|a, b| a.1.total_cmp(&b.1));
         let Some((k, rss)) = best else { break };
@@ -554,35 +522,17 @@ fn select(
         if delta_bic.is_nan() || delta_bic >= -SUPPORT {
             break;
         }
-        sel.chosen.push(k);
-        sel.rss_path.push(rss);
+        chosen.push(k);
+        rss_path.push(rss);
     }
-    Ok(Some(sel))
-}
-
-/// The missing form of `fit` of `model` on `data`.
-pub fn missing_form(
-    model: &Model,
-    fit: &ModelFit,
-    data: &Aligned,
-    settings: &MapSettings,
-) -> Result<MissingForm, CriticismError> {
-    let none = MissingForm::none();
-    let Some(sel) = select(model, fit, data)? else {
-        return Ok(none);
-    };
-    if sel.chosen.is_empty() {
+    if chosen.is_empty() {
         return Ok(none);
     }
-    let (chosen, lib, tangent) = (&sel.chosen, &sel.lib, &sel.tangent);
-    let n = sel.y.len();
-    let beta = match least_squares(&sel.design(chosen), &sel.y) {
+    let beta = match least_squares(&design(&chosen), &y) {
         Some((beta, _)) => beta.as_slice().to_vec(),
-        None => vec![0.0; sel.tangent_cols.len() + chosen.len()],
+        None => vec![0.0; tangent_cols.len() + chosen.len()],
     };
-    let coefficients = beta[sel.tangent_cols.len()..].to_vec();
-    let rss_path = &sel.rss_path;
-    let rss0 = rss_path[0];
+    let coefficients = beta[tangent_cols.len()..].to_vec();
     let terms: Vec<Term> = chosen
         .iter()
         .enumerate()
@@ -613,10 +563,10 @@ pub fn missing_form(
         .collect();
     let mut form = refined(model, fit, data, &cols, terms, settings)?;
     form.series = Some(FormSeries {
-        t: sel.t,
-        u: sel.u,
-        v: sel.v,
-        residual: sel.r,
+        t,
+        u,
+        v,
+        residual: r,
         described,
     });
     Ok(form)

@@ -53,6 +53,7 @@ use super::missing_form::{missing_form, MissingForm};
 use super::off_jumps;
 use super::residuals::{diagnose, Diagnostics};
 use super::sanity::bound_reached;
+use super::search::carried;
 use crate::data::Aligned;
 use crate::inference::pipeline::{
     compare, fit_map, laplace_evidence, Comparison, MapFit, PipelineError,
@@ -926,18 +927,14 @@ fn remains(
     };
     let effect = std::sync::Arc::new(effect);
     let value = |name: &str| ooc.values.iter().find(|(n, _)| n == name).map(|v| v.1);
-    let start_of =
-        |model: &Model, from: &Model, theta: &[f64], extra: &dyn Fn(&str) -> Option<f64>| {
-            let layout = from.layout();
-            model.layout().theta_from(&|p| {
-                layout
-                    .get(theta, &p.name)
-                    .or_else(|| extra(&p.name))
-                    .unwrap_or(p.neutral)
-            })
-        };
     let with = current.with_force(effect.clone());
-    let start = start_of(&with, current, fit.model_theta(current), &value);
+    let now = current.layout();
+    let theta = fit.model_theta(current);
+    let start = with.layout().theta_from(&|p| {
+        now.get(theta, &p.name)
+            .or_else(|| value(&p.name))
+            .unwrap_or(p.neutral)
+    });
     let base = fit_model(&with, data, fit.noise, Some(start), settings, seed)?;
     let form_gain = base.bic - fit.bic;
     // The candidate explains more than the form's terms: it is no
@@ -949,16 +946,7 @@ fn remains(
     // From the form's fit, the candidate's own parameters at their refit:
     // the joint model nests it.
     let both = candidate.with_force(effect);
-    let layout = with.layout();
-    let theta_base = base.model_theta(&with).to_vec();
-    let own = candidate.layout();
-    let theta_c = refit.model_theta(candidate).to_vec();
-    let start = both.layout().theta_from(&|p| {
-        layout
-            .get(&theta_base, &p.name)
-            .or_else(|| own.get(&theta_c, &p.name))
-            .unwrap_or(p.neutral)
-    });
+    let start = carried(&both, refit, candidate, &[(&base, &with)]);
     let joint = fit_model(&both, data, fit.noise, Some(start), settings, seed ^ 1)?;
     let delta = joint.bic - base.bic;
     Ok((delta > -SUPPORT).then(|| {
@@ -1184,9 +1172,9 @@ fn shrink_of(targets: &[FeatureKind], before: &[Feature], after: &[Feature]) -> 
 /// // One that pins another parameter on its bound: not added.
 /// let g = Gate { physical_size: Some(4.0), pins: Some("puts `rF0` on its prior bound".into()), ..g.clone() };
 /// assert!(g.supported() && !g.accepted() && g.reason(&[]).contains("`rF0`"));
-/// // One after which a memory force the catalog lacks still lowers BIC by
-/// // more than it did: a stand-in, not added.
-/// let g = Gate { pins: None, remains: Some("a memory term (tau 0.9 s) still lowers BIC by 400".into()), ..g.clone() };
+/// // One that a memory force the catalog lacks explains, gaining nothing
+/// // beside it: a stand-in, not added.
+/// let g = Gate { pins: None, remains: Some("the missing form's memory term lowers BIC by 241.9 ...".into()), ..g.clone() };
 /// assert!(g.supported() && !g.accepted() && g.reason(&[]).contains("memory"));
 /// ```
 #[derive(Debug, Clone)]

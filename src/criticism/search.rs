@@ -418,7 +418,7 @@ fn without(registry: &Registry, model: &Model, effect: &str) -> Option<Model> {
 
 /// A start for `model`: each parameter from the first of `sources` that
 /// has it, else from `fit` of `current`, else its neutral value.
-fn carried(
+pub(super) fn carried(
     model: &Model,
     fit: &ModelFit,
     current: &Model,
