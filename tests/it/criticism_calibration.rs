@@ -56,6 +56,9 @@ fn few_false_discoveries_and_hidden_effects_ranked_first() {
             o.accepted,
             o.reason
         );
+        if let Some(d) = o.truth_delta_bic {
+            eprintln!("    the truth refitted: BIC {d:+.1}");
+        }
     }
     let nulls: Vec<_> = outcomes
         .iter()
@@ -83,6 +86,20 @@ fn few_false_discoveries_and_hidden_effects_ranked_first() {
         stand_ins < outside.len(),
         "{stand_ins} of {}",
         outside.len()
+    );
+    // A hidden effect that BIC can find on its record (the truth, refitted
+    // from its own parameters, beats the start model by more than 10) is
+    // the one added. The full run on 503966's records missed 3 of the 55
+    // where the truth gained that much (README): at that rate two misses
+    // among four such records happen in 1.6 % of runs. Refusing every
+    // candidate fails it, and so does a detectability that counts a
+    // truth gaining less than 10 (the unit test in `calibration`).
+    let detectable: Vec<_> = hidden.iter().filter(|o| o.detectable()).collect();
+    let recovered = detectable.iter().filter(|o| o.recovered()).count();
+    assert!(
+        recovered + 1 >= detectable.len(),
+        "{recovered} of {} detectable hidden effects added",
+        detectable.len()
     );
     // The coloured records' noise is AR(1) through a filter: `auto` must
     // see it.
@@ -195,8 +212,8 @@ fn a_fit_strained_against_a_bound_is_searched_again() {
     use hbis::inference::MapSettings;
     let registry = Registry::builtin();
     let seed = 372_848 * 1_000_003 + 71;
-    let (start, data, _) =
-        make_record(&registry, hidden("degradation"), Sensor::Instant, seed).unwrap();
+    let made = make_record(&registry, hidden("degradation"), Sensor::Instant, seed).unwrap();
+    let (start, data) = (made.start, made.data);
     let settings = MapSettings::default();
     let noise = choose_noise(&start, &data, &settings, seed ^ 0x0A17_0015)
         .unwrap()
@@ -261,8 +278,8 @@ fn coloured_sensor_noise_is_seen_from_a_start_at_the_residuals_correlation() {
     use hbis::inference::{MapSettings, Noise};
     let registry = Registry::builtin();
     let run = |seed: u64| {
-        let (start, data, _) =
-            make_record(&registry, Kind::NullColoured, Sensor::Instant, seed).unwrap();
+        let made = make_record(&registry, Kind::NullColoured, Sensor::Instant, seed).unwrap();
+        let (start, data) = (made.start, made.data);
         let c = choose_noise(&start, &data, &MapSettings::default(), seed ^ 0x0A17_0015).unwrap();
         eprintln!(
             "seed {seed}: chosen {:?}, rho {:.3}, raw e2 ratio {:.4} (limit {:.4}), BIC white {:.1}, AR(1) {:.1}",
