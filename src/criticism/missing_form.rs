@@ -116,6 +116,12 @@ pub struct MissingForm {
     /// when the first term is one (not in the JSON; `None` otherwise).
     #[serde(skip)]
     pub out_of_catalog: Option<OutOfCatalog>,
+    /// Its elastic, memory and hysteretic terms when the first term is
+    /// elastic (`u^3`, `|u| u`): a stiffness law no catalog component
+    /// makes once the model's spring law is the last the catalog offers
+    /// (not in the JSON; `None` otherwise).
+    #[serde(skip)]
+    pub elastic_lead: Option<OutOfCatalog>,
 }
 
 /// The terms of a [`MissingForm`] that no catalog component is: memory and
@@ -156,6 +162,7 @@ impl MissingForm {
             delta_bic: None,
             series: None,
             out_of_catalog: None,
+            elastic_lead: None,
         }
     }
 }
@@ -648,7 +655,11 @@ fn refined(
     };
     Ok(MissingForm {
         effect_file: Some(effect_file_text(cols, &terms)),
-        out_of_catalog: out_of_catalog(cols, &terms),
+        out_of_catalog: held_apart(cols, &terms, &has_state),
+        elastic_lead: terms
+            .first()
+            .filter(|t| t.kind == "elastic")
+            .and_then(|_| held_apart(cols, &terms, &|k| k == "elastic" || has_state(k))),
         terms,
         e2_with,
         delta_bic,
@@ -656,22 +667,24 @@ fn refined(
     })
 }
 
-/// The memory and hysteretic ones of `terms` (from `cols`), with their
-/// values as parameters of their own effect file, when the first term (the
-/// one that explains most) is one of them. Where a term a catalog effect
+/// The ones of `terms` (from `cols`) of `kinds`, with their values as
+/// parameters of their own effect file, when the first term (the one that
+/// explains most) is one of them. Where a term a catalog effect
 /// makes explains more, catalog effects are still missing, and a memory
 /// term can stand in for them: from `bilinear+coulomb` on the README's
 /// record (the truth `trilinear+lcfm+viscous`) the form was `t sgn v`, a
 /// memory term of 0.68 s and `sgn v`, and that memory term alone lowered
 /// BIC by 520.6, more than `viscous` (251.0), which gained nothing beside
 /// it.
-fn out_of_catalog(cols: &[&Column], terms: &[Term]) -> Option<OutOfCatalog> {
-    if !terms.first().is_some_and(|t| has_state(t.kind)) {
+fn held_apart(
+    cols: &[&Column],
+    terms: &[Term],
+    kinds: &dyn Fn(&str) -> bool,
+) -> Option<OutOfCatalog> {
+    if !terms.first().is_some_and(|t| kinds(t.kind)) {
         return None;
     }
-    let keep: Vec<usize> = (0..terms.len())
-        .filter(|&i| has_state(terms[i].kind))
-        .collect();
+    let keep: Vec<usize> = (0..terms.len()).filter(|&i| kinds(terms[i].kind)).collect();
     let cols: Vec<&Column> = keep.iter().map(|&i| cols[i]).collect();
     let terms: Vec<Term> = keep.iter().map(|&i| terms[i].clone()).collect();
     let mut values = Vec::new();

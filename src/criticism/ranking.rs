@@ -49,7 +49,7 @@ use serde::Serialize;
 use thiserror::Error;
 
 use super::features::{Feature, FeatureKind};
-use super::missing_form::{missing_form, MissingForm};
+use super::missing_form::{missing_form, MissingForm, OutOfCatalog};
 use super::off_jumps;
 use super::residuals::{diagnose, Diagnostics};
 use super::sanity::bound_reached;
@@ -671,6 +671,7 @@ fn rank_from(
     let noise = fit.noise;
     let theta_now = fit.model_theta(current);
     let cands = registry.candidates(current, theta_now);
+    let spring_final = !cands.iter().any(|c| changes_spring(current, &c.model));
     let mut model_now = vec![0.0; data.a.len()];
     data.model_accel_into(current, theta_now, &mut model_now)?;
     let nuisance = jacobian(current, theta_now, &model_now, data);
@@ -849,12 +850,16 @@ fn rank_from(
                 form = Some(missing_form(current, fit_now, data, settings)?);
             }
             if let Some(form) = &form {
+                let held = form
+                    .out_of_catalog
+                    .as_ref()
+                    .or(form.elastic_lead.as_ref().filter(|_| spring_final));
                 gate.remains = remains(
                     current,
                     fit,
                     &c.model,
                     &refit,
-                    form,
+                    held,
                     data,
                     &numeric_budget,
                     seed ^ 0x5E_7A11,
@@ -900,8 +905,9 @@ fn rank_from(
 
 /// Set when the missing form of the current fit is led by a memory or
 /// hysteretic term (forces no catalog component makes:
-/// [`MissingForm::out_of_catalog`]), its such terms lower BIC by more than the
-/// candidate does, and with them in both models the candidate no longer
+/// [`MissingForm::out_of_catalog`]), or by an elastic term where no
+/// candidate changes the spring law ([`MissingForm::elastic_lead`]), its
+/// such terms (`held`) lower BIC by more than the candidate does, and with them in both models the candidate no longer
 /// lowers BIC by more than [`SUPPORT`]: it stood in for them. On two
 /// Maxwell records of the calibration (seed 552985) `friction-decay`
 /// lowered BIC by 12.5 and 31.5, the form's memory term by 124.2 and
@@ -914,12 +920,12 @@ fn remains(
     fit: &ModelFit,
     candidate: &Model,
     refit: &ModelFit,
-    form: &MissingForm,
+    held: Option<&OutOfCatalog>,
     data: &Aligned,
     settings: &MapSettings,
     seed: u64,
 ) -> Result<Option<String>, CriticismError> {
-    let Some(ooc) = &form.out_of_catalog else {
+    let Some(ooc) = held else {
         return Ok(None);
     };
     let Ok(effect) = FileEffect::from_toml(&ooc.effect_file, "missing-form") else {
@@ -956,6 +962,13 @@ fn remains(
             -form_gain
         )
     }))
+}
+
+/// Whether `extended` holds another spring law than `current`: an
+/// upgrade of the slot's law or a law swapped in beside its linear one.
+fn changes_spring(current: &Model, extended: &Model) -> bool {
+    let laws = |m: &Model| m.forces().iter().filter(|f| f.spring_law()).count();
+    extended.spec().spring != current.spec().spring || laws(extended) != laws(current)
 }
 
 /// `reason`, and whether the refit stopped at its evaluation budget.
