@@ -124,8 +124,8 @@ pub struct MissingForm {
     pub elastic_lead: Option<OutOfCatalog>,
 }
 
-/// The terms of a [`MissingForm`] that no catalog component is: memory and
-/// hysteretic forces.
+/// The terms of a [`MissingForm`] that no catalog component makes: memory
+/// and hysteretic forces, and elastic ones where the spring law is final.
 #[derive(Debug, Clone, PartialEq)]
 pub struct OutOfCatalog {
     /// Them as an effect file (component `missing-form`).

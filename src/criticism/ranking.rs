@@ -849,11 +849,12 @@ fn rank_from(
             if form.is_none() {
                 form = Some(missing_form(current, fit_now, data, settings)?);
             }
-            if let Some(form) = &form {
-                let held = form
-                    .out_of_catalog
+            let held = form.as_ref().and_then(|f| {
+                f.out_of_catalog
                     .as_ref()
-                    .or(form.elastic_lead.as_ref().filter(|_| spring_final));
+                    .or(f.elastic_lead.as_ref().filter(|_| spring_final))
+            });
+            if let Some(held) = held {
                 gate.remains = remains(
                     current,
                     fit,
@@ -903,12 +904,13 @@ fn rank_from(
     })
 }
 
-/// Set when the missing form of the current fit is led by a memory or
-/// hysteretic term (forces no catalog component makes:
-/// [`MissingForm::out_of_catalog`]), or by an elastic term where no
-/// candidate changes the spring law ([`MissingForm::elastic_lead`]), its
-/// such terms (`held`) lower BIC by more than the candidate does, and with them in both models the candidate no longer
-/// lowers BIC by more than [`SUPPORT`]: it stood in for them. On two
+/// Set when the terms `held` of the current fit's missing form, those no
+/// catalog component makes (led by a memory or hysteretic term,
+/// [`MissingForm::out_of_catalog`], or by an elastic term where no
+/// candidate changes the spring law, [`MissingForm::elastic_lead`]),
+/// lower BIC by more than the candidate does, and with them in both
+/// models the candidate no longer lowers BIC by more than [`SUPPORT`]:
+/// it stood in for them. On two
 /// Maxwell records of the calibration (seed 552985) `friction-decay`
 /// lowered BIC by 12.5 and 31.5, the form's memory term by 124.2 and
 /// 241.9, and beside it `friction-decay` gained nothing. (Refusing a candidate
@@ -920,14 +922,11 @@ fn remains(
     fit: &ModelFit,
     candidate: &Model,
     refit: &ModelFit,
-    held: Option<&OutOfCatalog>,
+    ooc: &OutOfCatalog,
     data: &Aligned,
     settings: &MapSettings,
     seed: u64,
 ) -> Result<Option<String>, CriticismError> {
-    let Some(ooc) = held else {
-        return Ok(None);
-    };
     let Ok(effect) = FileEffect::from_toml(&ooc.effect_file, "missing-form") else {
         return Ok(None);
     };
