@@ -743,6 +743,32 @@ pub fn table(outcomes: &[Outcome]) -> String {
 mod tests {
     use super::*;
 
+    /// The calibration's sensor noise is coloured from one sample to the
+    /// next, its white noise is not (seeds 1 to 5 each).
+    #[test]
+    fn sensor_noise_is_coloured_at_the_shortest_lags_and_white_noise_is_not() {
+        use crate::criticism::residuals::short_lag_rho;
+        use crate::criticism::short_lag_limit;
+        let limit = short_lag_limit(N);
+        for seed in 1..=5 {
+            let mut rng = StdRng::seed_from_u64(seed);
+            // A release-test-like signal, for the noise's scale.
+            let clean: Vec<f64> = (0..N)
+                .map(|i| (std::f64::consts::TAU * 0.5 * i as f64 * DT).sin())
+                .collect();
+            let read = sensor_noise(&clean, DT, &mut rng);
+            let noise: Vec<f64> = read.iter().zip(&clean).map(|(r, c)| r - c).collect();
+            let coloured = short_lag_rho(&noise);
+            let normal = Normal::new(0.0, 1.0).unwrap();
+            let white: Vec<f64> = clean.iter().map(|_| normal.sample(&mut rng)).collect();
+            let white = short_lag_rho(&white);
+            eprintln!(
+                "seed {seed}: sensor noise {coloured:.3}, white {white:.3}, limit {limit:.3}"
+            );
+            assert!(coloured > limit && white.abs() < limit);
+        }
+    }
+
     fn hidden(truth_delta_bic: f64, accepted: bool) -> Outcome {
         Outcome {
             kind: Kind::Hidden(4),

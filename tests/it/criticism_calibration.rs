@@ -263,6 +263,44 @@ fn a_refit_that_turns_the_residual_white_explains_it() {
     assert!(o.reason.contains("turns white"), "{}", o.reason);
 }
 
+/// A record with white noise and an accelerometer offset the start model
+/// lacks (seed 910000000015, drawn by hand on 2026-11-29 for the noise
+/// probe of `choose_noise`'s doc): AR(1) fits the misfitted start model
+/// with a BIC some 1,700 lower than white noise at the same raw `e2`
+/// (`rho` near 0.76), but the residual's sample-to-sample changes are
+/// white (`rho` near 0 from them), so white noise is kept. Under the
+/// AR(1) fit the gates would judge candidates on a residual whitened of
+/// the misfit they are asked to explain.
+#[test]
+fn white_noise_is_kept_where_ar1_would_only_absorb_a_misfit() {
+    use hbis::criticism::calibration::make_record;
+    use hbis::criticism::choose_noise;
+    use hbis::inference::{MapSettings, Noise};
+    let seed = 910_000_000_015;
+    let made = make_record(
+        &Registry::builtin(),
+        hidden("offset"),
+        Sensor::Instant,
+        seed,
+    )
+    .unwrap();
+    let c = choose_noise(
+        &made.start,
+        &made.data,
+        &MapSettings::default(),
+        seed ^ 0x0A17_0015,
+    )
+    .unwrap();
+    eprintln!("seed {seed}: {}", c.sentence());
+    assert!(c.bic_ar1 < c.bic_white - 100.0, "{}", c.sentence());
+    assert!(c.raw_e2_ratio <= c.raw_e2_limit, "{}", c.sentence());
+    assert!(c.rho_short.abs() < c.rho_short_limit, "{}", c.sentence());
+    assert_eq!(c.chosen, Noise::White, "{}", c.sentence());
+    assert!(c
+        .sentence()
+        .contains("sample-to-sample changes show no colour"));
+}
+
 /// Two null records with sensor noise (AR(1) through a filter) of the
 /// out-of-sample run of commit bb57b25 (seed 86683, records 52 and 54)
 /// for which `--noise auto` chose white noise: the AR(1) search, started
