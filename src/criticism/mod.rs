@@ -17,9 +17,9 @@ pub mod search;
 
 pub use missing_form::{missing_form, FormSeries, MissingForm, Term};
 pub use ranking::{
-    adopt, caution, choose_noise, conclusion, diagnose_model, diagnosis_of, fit_model,
-    place_release, priors_for, rank_candidates, short_lag_limit, CriticismError, ModelFit,
-    NoiseChoice, RankedCandidate, Ranking,
+    adopt, caution, choose_noise, conclusion, diagnose_model, diagnose_ranking, diagnosis_of,
+    fit_model, place_release, priors_for, rank_candidates, short_lag_limit, CriticismError,
+    ModelFit, NoiseChoice, RankedCandidate, Ranking,
 };
 pub use residuals::{diagnose, Diagnostics};
 pub use search::{ladder, ladder_observed, Move, PathEnd, Search, Step};

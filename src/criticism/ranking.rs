@@ -901,6 +901,7 @@ fn rank_from(
     Ok(Ranking {
         candidates: out,
         current: fit.clone(),
+        form,
     })
 }
 
@@ -1404,6 +1405,10 @@ pub struct Ranking {
     /// The current model's fit: the one given, or a better one found from
     /// the current model's part of a candidate's refit.
     pub current: ModelFit,
+    /// The missing form of [`Ranking::current`], where the gates needed
+    /// it (a candidate passed the others): the same as [`missing_form`]
+    /// of that fit gives, kept so that no caller computes it twice.
+    pub form: Option<MissingForm>,
 }
 
 /// `base`, a fit of `current` (on its engine), refitted from the current
@@ -1669,7 +1674,7 @@ impl NoiseChoice {
 /// about the sensor. Nor does a lower BIC alone: on records with white
 /// noise and an effect the start model lacks (an accelerometer offset,
 /// damping, a third spring branch) AR(1) won by 100 to 2,000 in BIC at a
-/// raw `e2` within 1 % of the white fit's (`rho` 0.23-0.85), while the
+/// raw `e2` within 6 % of the white fit's (`rho` 0.23-0.81), while the
 /// sample-to-sample changes read `rho` -0.04 to 0.08 on them and 1.9 on
 /// the calibration's sensor noise (2026-11-29, 54 calibration records,
 /// seeds 910000000000-053). Under that AR(1) the gates judged candidates
@@ -1756,10 +1761,24 @@ pub fn diagnose_model(
     settings: &MapSettings,
     seed: u64,
 ) -> Result<(ModelFit, Diagnostics, Vec<RankedCandidate>), CriticismError> {
+    let (fit, diagnosis, ranking) = diagnose_ranking(registry, model, data, noise, settings, seed)?;
+    Ok((fit, diagnosis, ranking.candidates))
+}
+
+/// [`diagnose_model`] with the whole [`Ranking`] (its missing form where
+/// the gates computed one).
+pub fn diagnose_ranking(
+    registry: &Registry,
+    model: &Model,
+    data: &Aligned,
+    noise: Noise,
+    settings: &MapSettings,
+    seed: u64,
+) -> Result<(ModelFit, Diagnostics, Ranking), CriticismError> {
     let fit = fit_model(model, data, noise, None, settings, seed)?;
     let ranking = rank_candidates(registry, model, &fit, data, settings, seed.wrapping_add(1))?;
     let diagnosis = diagnosis_of(model, &ranking.current, data)?;
-    Ok((ranking.current, diagnosis, ranking.candidates))
+    Ok((ranking.current.clone(), diagnosis, ranking))
 }
 
 #[cfg(test)]

@@ -29,7 +29,7 @@ use serde::Serialize;
 use thiserror::Error;
 
 use crate::criticism::{
-    choose_noise, diagnose_model, ladder_observed, missing_form, place_release, CriticismError,
+    choose_noise, diagnose_ranking, ladder_observed, missing_form, place_release, CriticismError,
     Diagnostics, MissingForm, ModelFit, Move, NoiseChoice, PathEnd, RankedCandidate, Step,
 };
 use crate::data::{Aligned, Warning};
@@ -220,8 +220,9 @@ pub fn diagnose(
     s: &Setup,
     settings: &MapSettings,
 ) -> Result<Diagnosis, CriticizeError> {
-    let (fit, residual, candidates) =
-        diagnose_model(registry, &s.model, &s.data, s.noise, settings, s.seed)?;
+    let (fit, residual, ranking) =
+        diagnose_ranking(registry, &s.model, &s.data, s.noise, settings, s.seed)?;
+    let candidates = ranking.candidates;
     let report = DiagnosisReport {
         hbis_version: env!("CARGO_PKG_VERSION").to_string(),
         model: s.model.name(),
@@ -242,7 +243,10 @@ pub fn diagnose(
         caution: crate::criticism::caution(&candidates),
         conclusion: crate::criticism::conclusion(&residual, &candidates),
         verdict: residual.verdict.clone(),
-        missing_form: missing_form(&s.model, &fit, &s.data, settings)?,
+        missing_form: match ranking.form {
+            Some(form) => form,
+            None => missing_form(&s.model, &fit, &s.data, settings)?,
+        },
         warnings: {
             let mut w = with_fit_warnings(s.warnings.clone(), &s.model, &fit);
             w.extend(refit_warnings(

@@ -8,7 +8,9 @@
 
 use std::sync::Arc;
 
-use hbis::criticism::{diagnose_model, diagnosis_of, fit_model, ladder};
+use hbis::criticism::{
+    diagnose_model, diagnose_ranking, diagnosis_of, fit_model, ladder, missing_form,
+};
 use hbis::data::{synthesize, Aligned};
 use hbis::inference::{MapSettings, Noise};
 use hbis::model::{ForwardModel, Model, ModelSpec, OutputComponent, Params, Registry};
@@ -65,7 +67,7 @@ fn hidden_in(
     let (data, floor) = record(truth_model, truth, seed);
     let model = Model::parse(start).unwrap();
     let settings = MapSettings::default();
-    let (fit, _, ranked) = diagnose_model(
+    let (fit, _, ranking) = diagnose_ranking(
         &Registry::builtin(),
         &model,
         &data,
@@ -74,6 +76,13 @@ fn hidden_in(
         1,
     )
     .unwrap();
+    // `hbis diagnose` writes the form the gates computed instead of
+    // computing it again: it must be the one the fit gives.
+    eprintln!("{effect}: form from the gates: {}", ranking.form.is_some());
+    if let Some(form) = &ranking.form {
+        assert_eq!(form, &missing_form(&model, &fit, &data, &settings).unwrap());
+    }
+    let ranked = ranking.candidates;
     let names: Vec<&str> = ranked.iter().map(|c| c.effect.as_str()).collect();
     assert_eq!(names[0], effect, "ranking {names:?}");
     assert!(ranked[0].supported);

@@ -244,7 +244,8 @@ fn a_fit_strained_against_a_bound_is_searched_again() {
 /// as its period features grew, and `friction-decay` (BIC -14.7, `kappa_F`
 /// 4.98 against a bound at 5) was added in its place. A refit that turns a
 /// coloured residual white explains it: without that rule the record gets
-/// `friction-decay` again.
+/// `friction-decay` again. (Since the short-lag rule of `--noise auto` the
+/// record keeps white noise, and the refit turns Q 1,489.8 into 18.0.)
 #[test]
 fn a_refit_that_turns_the_residual_white_explains_it() {
     use hbis::criticism::calibration::criticise;
