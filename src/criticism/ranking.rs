@@ -1639,8 +1639,7 @@ pub struct NoiseChoice {
 impl NoiseChoice {
     /// One sentence with the numbers.
     pub fn sentence(&self) -> String {
-        let ar1_by_bic = self.bic_ar1 < self.bic_white;
-        let why = if ar1_by_bic && self.raw_e2_ratio > self.raw_e2_limit {
+        let why = if self.bic_ar1 < self.bic_white && self.raw_e2_ratio > self.raw_e2_limit {
             format!(
                 "white: AR(1) has the lower BIC ({:.1} against {:.1}, rho = {:.2}) only by a fit whose raw e2 is {:.2}x the white fit's, beyond the {:.3}x the noise explains: its correlation absorbs a misfit, not sensor noise",
                 self.bic_ar1, self.bic_white, self.rho, self.raw_e2_ratio, self.raw_e2_limit
@@ -1659,7 +1658,7 @@ impl NoiseChoice {
                 self.chosen.as_str(),
                 self.bic_white,
                 self.bic_ar1,
-                self.rho,
+                self.rho
             )
         };
         format!("noise model: {why}")
@@ -1762,12 +1761,13 @@ pub fn diagnose_model(
     settings: &MapSettings,
     seed: u64,
 ) -> Result<(ModelFit, Diagnostics, Vec<RankedCandidate>), CriticismError> {
-    let (fit, diagnosis, ranking) = diagnose_ranking(registry, model, data, noise, settings, seed)?;
-    Ok((fit, diagnosis, ranking.candidates))
+    let (diagnosis, ranking) = diagnose_ranking(registry, model, data, noise, settings, seed)?;
+    Ok((ranking.current, diagnosis, ranking.candidates))
 }
 
-/// [`diagnose_model`] with the whole [`Ranking`] (its missing form where
-/// the gates computed one).
+/// [`diagnose_model`] with the whole [`Ranking`] (the start model's fit in
+/// [`Ranking::current`], and the missing form where the gates computed
+/// one).
 pub fn diagnose_ranking(
     registry: &Registry,
     model: &Model,
@@ -1775,11 +1775,11 @@ pub fn diagnose_ranking(
     noise: Noise,
     settings: &MapSettings,
     seed: u64,
-) -> Result<(ModelFit, Diagnostics, Ranking), CriticismError> {
+) -> Result<(Diagnostics, Ranking), CriticismError> {
     let fit = fit_model(model, data, noise, None, settings, seed)?;
     let ranking = rank_candidates(registry, model, &fit, data, settings, seed.wrapping_add(1))?;
     let diagnosis = diagnosis_of(model, &ranking.current, data)?;
-    Ok((ranking.current.clone(), diagnosis, ranking))
+    Ok((diagnosis, ranking))
 }
 
 #[cfg(test)]

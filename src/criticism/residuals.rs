@@ -38,6 +38,7 @@ use serde::Serialize;
 use statrs::distribution::{ChiSquared, ContinuousCDF};
 
 use super::features::{self, Feature};
+use crate::data::record::{median, robust_scale};
 use crate::model::numeric::Motion;
 use crate::model::{ModelSpec, Params, SimError};
 
@@ -624,13 +625,8 @@ pub fn short_lag_rho(r: &[f64]) -> f64 {
     if d.len() < 3 {
         return 0.0;
     }
-    let median = |x: &mut Vec<f64>| {
-        x.sort_by(f64::total_cmp);
-        x[x.len() / 2]
-    };
     let m = median(&mut d.clone());
-    let mad = median(&mut d.iter().map(|x| (x - m).abs()).collect());
-    let limit = 4.5 * 1.4826 * mad;
+    let limit = 4.5 * robust_scale(&d);
     let kept = |x: f64| (x - m).abs() <= limit;
     let (mut num, mut den) = (0.0, 0.0);
     for w in d.windows(2) {

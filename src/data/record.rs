@@ -894,13 +894,13 @@ fn round_sig(x: f64) -> f64 {
 
 /// 1.4826 times the median absolute deviation of `v`: its standard
 /// deviation for Gaussian values, hardly moved by a few wild ones.
-fn robust_scale(v: &[f64]) -> f64 {
+pub(crate) fn robust_scale(v: &[f64]) -> f64 {
     let med = median(&mut v.to_vec());
     1.4826 * median(&mut v.iter().map(|x| (x - med).abs()).collect::<Vec<_>>())
 }
 
 /// Median of `v` (reordered); 0 when empty.
-fn median(v: &mut [f64]) -> f64 {
+pub(crate) fn median(v: &mut [f64]) -> f64 {
     let n = v.len();
     if n == 0 {
         return 0.0;

@@ -220,9 +220,9 @@ pub fn diagnose(
     s: &Setup,
     settings: &MapSettings,
 ) -> Result<Diagnosis, CriticizeError> {
-    let (fit, residual, ranking) =
+    let (residual, ranking) =
         diagnose_ranking(registry, &s.model, &s.data, s.noise, settings, s.seed)?;
-    let candidates = ranking.candidates;
+    let (fit, candidates) = (ranking.current, ranking.candidates);
     let report = DiagnosisReport {
         hbis_version: env!("CARGO_PKG_VERSION").to_string(),
         model: s.model.name(),

@@ -67,7 +67,7 @@ fn hidden_in(
     let (data, floor) = record(truth_model, truth, seed);
     let model = Model::parse(start).unwrap();
     let settings = MapSettings::default();
-    let (fit, _, ranking) = diagnose_ranking(
+    let (_, ranking) = diagnose_ranking(
         &Registry::builtin(),
         &model,
         &data,
@@ -80,9 +80,12 @@ fn hidden_in(
     // computing it again: it must be the one the fit gives.
     eprintln!("{effect}: form from the gates: {}", ranking.form.is_some());
     if let Some(form) = &ranking.form {
-        assert_eq!(form, &missing_form(&model, &fit, &data, &settings).unwrap());
+        assert_eq!(
+            form,
+            &missing_form(&model, &ranking.current, &data, &settings).unwrap()
+        );
     }
-    let ranked = ranking.candidates;
+    let (fit, ranked) = (ranking.current, ranking.candidates);
     let names: Vec<&str> = ranked.iter().map(|c| c.effect.as_str()).collect();
     assert_eq!(names[0], effect, "ranking {names:?}");
     assert!(ranked[0].supported);
