@@ -108,12 +108,6 @@ pub struct ModelFit {
     /// Whether its MAP search stopped at its evaluation budget instead of
     /// converging ([`crate::inference::MapEstimate::at_budget`]).
     pub at_budget: bool,
-    /// Whether its global search reached its best value twice
-    /// ([`crate::inference::MapEstimate::best_repeated`]; `None` for a
-    /// local search). Kept when a local refit improves the fit: it says
-    /// how far the global search alone can be trusted.
-    #[serde(skip)]
-    pub best_repeated: Option<bool>,
 }
 
 impl ModelFit {
@@ -485,7 +479,6 @@ fn with_evidence(
         evaluations: map.evaluations(),
         noise: fit.posterior.noise(),
         at_budget: map.at_budget(),
-        best_repeated: map.best_repeated,
     })
 }
 
@@ -1471,9 +1464,7 @@ fn improve_baseline(
         let seed = seed.wrapping_add(i as u64);
         let again = fit_model(current, data, base.noise, Some(start), budget, seed)?;
         if again.log_likelihood > base.log_likelihood {
-            let global = base.best_repeated;
             *base = again;
-            base.best_repeated = global;
         }
     }
     Ok(())

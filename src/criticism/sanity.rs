@@ -53,34 +53,6 @@ pub fn map_at_budget(model: &str, at_budget: bool, evaluations: u64) -> Option<W
     })
 }
 
-/// `map-not-repeated` when the global MAP search of `model` ended without
-/// two of its runs reaching the same best value: the best basin was
-/// found once, if at all, and another seed may end elsewhere. On four
-/// Maxwell records of the criticism calibration, 17 of 24 global searches
-/// of `trilinear+lcfm+viscous` ended more than 2 nats below the best of
-/// six seeds, and `diagnose`'s verdict on one of them changed with the
-/// seed (docs/criticism.md, 2026-11-30); on a null record none did.
-///
-/// ```
-/// use hbis::criticism::sanity::map_not_repeated;
-/// let w = map_not_repeated("trilinear+lcfm+viscous", Some(false)).unwrap();
-/// assert_eq!(w.code, "map-not-repeated");
-/// assert!(w.message.contains("`trilinear+lcfm+viscous`"));
-/// assert!(map_not_repeated("trilinear+lcfm+viscous", Some(true)).is_none());
-/// // A local search (one run by design) says nothing.
-/// assert!(map_not_repeated("trilinear+lcfm+viscous", None).is_none());
-/// ```
-pub fn map_not_repeated(model: &str, best_repeated: Option<bool>) -> Option<Warning> {
-    (best_repeated == Some(false)).then(|| Warning {
-        code: "map-not-repeated".into(),
-        message: format!(
-            "no two runs of the MAP search of `{model}` reached the same best \
-             value: its best basin was found once, if at all, and a run with another --seed \
-             may end elsewhere (and, in diagnose and ladder, reach another verdict)"
-        ),
-    })
-}
-
 /// `refits-at-budget` when candidate refits stopped at their evaluation
 /// budget: `refits` names each (`effect`, or `step k: effect` in a ladder)
 /// with its evaluations. Their BIC and `e2` bound what those models reach

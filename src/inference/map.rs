@@ -222,11 +222,6 @@ pub struct MapEstimate {
     pub preparation_evaluations: u64,
     /// Wall time (s), preparation included.
     pub wall_time: f64,
-    /// Whether two of the global search's runs reached its best value
-    /// (within `repeat_tol`): the best basin was found twice from
-    /// independent starts. `None` for a search of one run by design (no
-    /// restarts: a local search from a warm start).
-    pub best_repeated: Option<bool>,
 }
 
 /// Where one CMA-ES run ended.
@@ -399,7 +394,6 @@ where
     if !best_f.is_finite() {
         return Err(MapError::NothingFeasible { evaluations });
     }
-    let best_repeated = (settings.restarts > 0).then_some(hits >= 2);
     let mut theta = to_theta(&best_u);
     let before = posterior.evaluate(&theta)?;
     let mut eval = before;
@@ -432,7 +426,6 @@ where
         polish: polish_report,
         preparation_evaluations: 0,
         wall_time: clock.elapsed().as_secs_f64(),
-        best_repeated,
     })
 }
 

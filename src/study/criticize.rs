@@ -147,10 +147,6 @@ fn with_fit_warnings(mut warnings: Vec<Warning>, model: &Model, fit: &ModelFit) 
         fit.at_budget,
         fit.evaluations,
     ));
-    warnings.extend(crate::criticism::sanity::map_not_repeated(
-        &fit.model,
-        fit.best_repeated,
-    ));
     warnings
 }
 
@@ -444,10 +440,6 @@ pub fn ladder(
             &format!("{} (step {k})", st.model),
             st.fit.at_budget,
             st.fit.evaluations,
-        ));
-        warnings.extend(crate::criticism::sanity::map_not_repeated(
-            &format!("{} (step {k})", st.model),
-            st.fit.best_repeated,
         ));
     }
     let data = s

@@ -137,11 +137,6 @@ pub fn fit_report(fit: &Fit, run: &FitRun, chains: Vec<String>, thin: Option<usi
         fit.map.at_budget(),
         fit.map.evaluations(),
     ));
-    r.warnings
-        .extend(crate::criticism::sanity::map_not_repeated(
-            &fit.posterior.model().name(),
-            fit.map.best_repeated,
-        ));
     r.warnings.extend(crate::criticism::sanity::structured_at(
         &fit.posterior,
         &fit.map.theta,

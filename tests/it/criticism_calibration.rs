@@ -397,34 +397,3 @@ fn refused_as_stand_in_for(seed: u64, term: &str) {
 fn a_candidate_the_missing_forms_elastic_term_explains_is_refused() {
     refused_as_stand_in_for(225_710_677_247, "elastic term");
 }
-
-/// A global MAP search whose runs never reach the same best value says
-/// so (`map-not-repeated`): on the Maxwell record above
-/// (552986659078), where 19 of 20 seeds' searches of the start model
-/// ended more than 2 nats below the best of them (docs/criticism.md,
-/// 2026-11-30), and not on a null record, where ten of ten agreed.
-#[test]
-fn a_global_search_whose_runs_disagree_is_reported() {
-    use hbis::criticism::calibration::make_record;
-    use hbis::criticism::ranking::{choose_noise, fit_model};
-    use hbis::criticism::sanity::map_not_repeated;
-    use hbis::inference::map::MapSettings;
-    let registry = Registry::builtin();
-    let settings = MapSettings::default();
-    let repeated = |kind, seed: u64| {
-        let made = make_record(&registry, kind, Sensor::Instant, seed).unwrap();
-        let noise = choose_noise(&made.start, &made.data, &settings, seed ^ 0x0A17_0015)
-            .unwrap()
-            .chosen;
-        let fit = fit_model(&made.start, &made.data, noise, None, &settings, 1).unwrap();
-        eprintln!(
-            "{seed}: log-likelihood {:.2}, {} evaluations, best repeated {:?}",
-            fit.log_likelihood, fit.evaluations, fit.best_repeated
-        );
-        fit.best_repeated
-    };
-    let maxwell = repeated(Kind::Outside(0), 552_986_659_078);
-    assert_eq!(maxwell, Some(false));
-    assert!(map_not_repeated("trilinear+lcfm+viscous", maxwell).is_some());
-    assert_eq!(repeated(Kind::NullWhite, 552_986_659_001), Some(true));
-}
