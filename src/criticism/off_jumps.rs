@@ -139,6 +139,7 @@ mod tests {
             evaluations: 0,
             noise: Noise::White,
             at_budget: false,
+            best_repeated: None,
         };
         (model, fit, data)
     }

@@ -108,6 +108,11 @@ pub struct ModelFit {
     /// Whether its MAP search stopped at its evaluation budget instead of
     /// converging ([`crate::inference::MapEstimate::at_budget`]).
     pub at_budget: bool,
+    /// Whether its global search reached its best value twice
+    /// ([`crate::inference::MapEstimate::best_repeated`]; `None` for a
+    /// local search).
+    #[serde(skip)]
+    pub best_repeated: Option<bool>,
 }
 
 impl ModelFit {
@@ -409,6 +414,40 @@ pub fn fit_model(
     with_evidence(model, &fit, cmp)
 }
 
+/// The start model's fit: a global search, and a second one from new
+/// starts where the first never reached its best value twice
+/// ([`crate::inference::map::found_twice`]); the better of the two is
+/// kept. On a model that lacks what the record holds the global search's
+/// runs can end far apart: of 12 cold fits of `trilinear+lcfm+viscous` on
+/// four Maxwell records of the calibration generator, 4 ended more than 2
+/// nats below the best of six; with the second search where the runs
+/// disagreed (7 of the 12), 1 did (docs/criticism.md, 2026-11-30). Where
+/// the runs agree, nothing changes.
+pub fn start_fit(
+    model: &Model,
+    data: &Aligned,
+    noise: Noise,
+    settings: &MapSettings,
+    seed: u64,
+) -> Result<ModelFit, CriticismError> {
+    let fit = fit_model(model, data, noise, None, settings, seed)?;
+    if fit.best_repeated != Some(false) {
+        return Ok(fit);
+    }
+    let again = fit_model(model, data, noise, None, settings, seed ^ SECOND_START)?;
+    let evaluations = fit.evaluations + again.evaluations;
+    let mut kept = if again.log_likelihood > fit.log_likelihood {
+        again
+    } else {
+        fit
+    };
+    kept.evaluations = evaluations;
+    Ok(kept)
+}
+
+/// Mixed into the seed of [`start_fit`]'s second search.
+const SECOND_START: u64 = 0x5EC0_4D5E_A4C8;
+
 /// A warm-started search runs locally: one CMA-ES run from its start
 /// (step 0.02 of the unit box) and the polish, without the global
 /// restarts. On the demo's `record.csv` its runs ended by `tol_fun` after
@@ -479,6 +518,7 @@ fn with_evidence(
         evaluations: map.evaluations(),
         noise: fit.posterior.noise(),
         at_budget: map.at_budget(),
+        best_repeated: map.best_repeated,
     })
 }
 
@@ -1776,7 +1816,7 @@ pub fn diagnose_ranking(
     settings: &MapSettings,
     seed: u64,
 ) -> Result<(Diagnostics, Ranking), CriticismError> {
-    let fit = fit_model(model, data, noise, None, settings, seed)?;
+    let fit = start_fit(model, data, noise, settings, seed)?;
     let ranking = rank_candidates(registry, model, &fit, data, settings, seed.wrapping_add(1))?;
     let diagnosis = diagnosis_of(model, &ranking.current, data)?;
     Ok((diagnosis, ranking))

@@ -222,6 +222,12 @@ pub struct MapEstimate {
     pub preparation_evaluations: u64,
     /// Wall time (s), preparation included.
     pub wall_time: f64,
+    /// Whether the global search reached its best value twice (within
+    /// [`SAME_BASIN`]), by two runs or by a run and its warm start: the
+    /// best basin was found twice from independent starts
+    /// ([`found_twice`]). `None` for a search of one run by design (no
+    /// restarts: a local search from a warm start).
+    pub best_repeated: Option<bool>,
 }
 
 /// Where one CMA-ES run ended.
@@ -311,6 +317,10 @@ where
     let mut evaluations = 0;
     // Runs that reached the best value so far (within `repeat_tol`).
     let mut hits = 0;
+    // The warm start's log-posterior: it came from a search of its own
+    // (e.g. the white-noise MAP that starts an AR(1) search), so reaching
+    // it again counts towards `best_repeated`.
+    let mut start_lp = None;
     let base = 4 + (3.0 * (d as f64).ln()).floor() as usize;
     let (mut large_runs, mut large_evals, mut small_evals) = (0usize, 0usize, 0usize);
     for _ in 0..=settings.restarts {
@@ -353,6 +363,7 @@ where
                     best_f = f;
                     best_u = u.clone();
                 }
+                start_lp = Some(-f);
                 Some(Start::Point(u))
             }
             _ => None,
@@ -394,6 +405,7 @@ where
     if !best_f.is_finite() {
         return Err(MapError::NothingFeasible { evaluations });
     }
+    let best_repeated = (settings.restarts > 0).then(|| found_twice(&ends, start_lp));
     let mut theta = to_theta(&best_u);
     let before = posterior.evaluate(&theta)?;
     let mut eval = before;
@@ -426,7 +438,34 @@ where
         polish: polish_report,
         preparation_evaluations: 0,
         wall_time: clock.elapsed().as_secs_f64(),
+        best_repeated,
     })
+}
+
+/// Two runs ended within this (nats of log-posterior) are taken as the
+/// same basin by [`MapEstimate::best_repeated`]: runs in one basin end
+/// apart by a fraction of a nat on the likelihood's staircase (the
+/// reversals' sample instants), which `repeat_tol` (0.05) does not
+/// forgive, and criticism calls refits within one nat agreeing.
+pub const SAME_BASIN: f64 = 1.0;
+
+/// Whether at least two of the runs' `ends`, or a run and the warm
+/// start (log-posterior `start_lp`), came within [`SAME_BASIN`] of the
+/// best of them.
+///
+/// ```
+/// use hbis::inference::map::{found_twice, RunEnd};
+/// let end = |lp| RunEnd { theta: vec![], log_posterior: lp };
+/// assert!(found_twice(&[end(10.0), end(9.5), end(3.0)], None));
+/// assert!(!found_twice(&[end(10.0), end(8.0)], None));
+/// // A run that came back to the warm start.
+/// assert!(found_twice(&[end(9.9), end(4.0)], Some(10.0)));
+/// assert!(!found_twice(&[end(7.0), end(4.0)], Some(10.0)));
+/// ```
+pub fn found_twice(ends: &[RunEnd], start_lp: Option<f64>) -> bool {
+    let values = ends.iter().map(|e| e.log_posterior).chain(start_lp);
+    let best = values.clone().fold(f64::NEG_INFINITY, f64::max);
+    values.filter(|v| *v > best - SAME_BASIN).count() >= 2
 }
 
 /// A second MAP search from new starts, run when the first search's
