@@ -5,7 +5,7 @@ use std::io::Write;
 use std::path::PathBuf;
 
 use anyhow::{Context, Result};
-use hbis::criticism::{Diagnostics, ModelFit, Move, PathEnd, RankedCandidate, Step};
+use hbis::criticism::{Diagnostics, ModelFit, Move, PathEnd, RankedCandidate, Screened, Step};
 use hbis::inference::{MapSettings, Noise};
 use hbis::model::{ForwardModel, Registry};
 use hbis::report::outdir::{InputEntry, OutDir};
@@ -147,7 +147,14 @@ pub fn diagnose(a: Args) -> Result<()> {
     dir.finish("diagnose", a.seed, &name, Some(InputEntry::of(&a.data)?))?;
     let mut err = std::io::stderr().lock();
     let r = &d.report;
-    print_diagnosis(&mut err, &name, &d.fit, &r.residual, &r.candidates)?;
+    print_diagnosis(
+        &mut err,
+        &name,
+        &d.fit,
+        &r.residual,
+        &r.candidates,
+        &r.screened_out,
+    )?;
     writeln!(err, "wrote {}", path.display())?;
     if a.json {
         super::print_stdout(&text)?;
@@ -211,6 +218,7 @@ pub fn print_diagnosis(
     fit: &ModelFit,
     d: &Diagnostics,
     ranked: &[RankedCandidate],
+    screened: &[Screened],
 ) -> Result<()> {
     writeln!(out, "{model}: e2 = {:.5}, BIC = {:.1}", fit.e2, fit.bic)?;
     writeln!(out, "  residual by phase:")?;
@@ -246,6 +254,9 @@ pub fn print_diagnosis(
                 "unsupported"
             }
         )?;
+    }
+    for c in screened {
+        writeln!(out, "    {:10} {}", c.effect, c.reason)?;
     }
     if let Some(c) = hbis::criticism::caution(ranked) {
         writeln!(out, "  caution: {c}")?;

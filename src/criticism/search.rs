@@ -41,8 +41,8 @@ use rand::{RngExt, SeedableRng};
 use serde::Serialize;
 
 use super::ranking::{
-    adopt, caution, conclusion, diagnose_model, diagnosis_of, fit_model, rank_candidates,
-    replace_release, CriticismError, ModelFit, RankedCandidate,
+    adopt, caution, conclusion, diagnose_ranking, diagnosis_of, fit_model, rank_candidates,
+    replace_release, CriticismError, ModelFit, RankedCandidate, Screened,
 };
 use super::residuals::Diagnostics;
 use crate::data::Aligned;
@@ -81,6 +81,9 @@ pub struct Step {
     pub diagnosis: Diagnostics,
     /// The candidates considered after this model, best first.
     pub candidates: Vec<RankedCandidate>,
+    /// The candidates screened out, not refitted
+    /// ([`super::ranking::SCREEN_LEVEL`]).
+    pub screened_out: Vec<Screened>,
     /// When the best candidate is not told apart from another
     /// ([`caution`]).
     pub caution: Option<String>,
@@ -140,6 +143,7 @@ struct Node {
     fit: ModelFit,
     diagnosis: Diagnostics,
     candidates: Vec<RankedCandidate>,
+    screened: Vec<Screened>,
 }
 
 /// An effect the ladder added, with every candidate accepted at the same
@@ -196,6 +200,7 @@ impl Searcher<'_> {
             diagnosis: diagnosis_of(&s.model, &ranking.current, &s.data)?,
             fit: ranking.current,
             candidates: ranking.candidates,
+            screened: ranking.screened,
         };
         s.fit = node.fit.clone();
         self.nodes.insert(k, node.clone());
@@ -447,6 +452,7 @@ fn step_of(s: &State, node: &Node, added: Option<String>, moves: Vec<Move>, path
         lag: s.data.lag,
         diagnosis: node.diagnosis.clone(),
         candidates: node.candidates.clone(),
+        screened_out: node.screened.clone(),
         caution: caution(&node.candidates),
         conclusion: conclusion(&node.diagnosis, &node.candidates),
         fit: node.fit.clone(),
@@ -494,12 +500,13 @@ pub fn ladder_observed(
     max_steps: usize,
     on_step: &mut dyn FnMut(&Step),
 ) -> Result<Search, CriticismError> {
-    let (fit, diagnosis, candidates) =
-        diagnose_model(registry, &start, data, noise, settings, seed)?;
+    let (diagnosis, ranking) = diagnose_ranking(registry, &start, data, noise, settings, seed)?;
+    let fit = ranking.current;
     let node = Node {
         fit: fit.clone(),
         diagnosis,
-        candidates,
+        candidates: ranking.candidates,
+        screened: ranking.screened,
     };
     let s = State {
         model: start,

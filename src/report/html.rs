@@ -331,6 +331,13 @@ pub fn fit_page(
 }
 
 /// The candidates of a diagnosis (or a ladder step) as a table.
+/// One sentence per candidate screened out by its score test.
+fn screened_list(s: &mut Section, screened: &[crate::criticism::Screened]) {
+    for c in screened {
+        s.paragraph(&format!("{}: {}", c.effect, c.reason));
+    }
+}
+
 fn candidates_table(s: &mut Section, c: &[crate::criticism::RankedCandidate]) {
     s.table(
         &[
@@ -419,6 +426,7 @@ pub fn diagnosis_page(
     fit: &crate::criticism::ModelFit,
     diagnosis: &crate::criticism::Diagnostics,
     candidates: &[crate::criticism::RankedCandidate],
+    screened: &[crate::criticism::Screened],
     warnings: &[crate::data::Warning],
     figures: &[(String, String)],
 ) -> String {
@@ -436,6 +444,7 @@ pub fn diagnosis_page(
     }
     let mut c = Section::new("Candidates");
     candidates_table(&mut c, candidates);
+    screened_list(&mut c, screened);
     let mut page = Page::new(&format!(
         "hbis diagnose: {} with {}",
         info.source, info.model
@@ -493,6 +502,7 @@ pub fn ladder_page(
             sec.warning(c);
         }
         candidates_table(&mut sec, &s.candidates);
+        screened_list(&mut sec, &s.screened_out);
         page = page.section(sec);
     }
     if let Some(f) = figures_section(figures) {

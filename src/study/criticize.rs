@@ -30,7 +30,8 @@ use thiserror::Error;
 
 use crate::criticism::{
     choose_noise, diagnose_ranking, ladder_observed, missing_form, place_release, CriticismError,
-    Diagnostics, MissingForm, ModelFit, Move, NoiseChoice, PathEnd, RankedCandidate, Step,
+    Diagnostics, MissingForm, ModelFit, Move, NoiseChoice, PathEnd, RankedCandidate, Screened,
+    Step,
 };
 use crate::data::{Aligned, Warning};
 use crate::inference::{MapSettings, Noise};
@@ -190,6 +191,9 @@ pub struct DiagnosisReport {
     pub map: BTreeMap<String, f64>,
     /// Every candidate, best first.
     pub candidates: Vec<RankedCandidate>,
+    /// The candidates screened out by their score test and not refitted
+    /// (only where the likelihood is continuous: an averaging sensor).
+    pub screened_out: Vec<Screened>,
     /// When two candidates may stand in for each other.
     pub caution: Option<String>,
     /// The conclusion in one sentence.
@@ -222,7 +226,7 @@ pub fn diagnose(
 ) -> Result<Diagnosis, CriticizeError> {
     let (residual, ranking) =
         diagnose_ranking(registry, &s.model, &s.data, s.noise, settings, s.seed)?;
-    let (fit, candidates) = (ranking.current, ranking.candidates);
+    let (fit, candidates, screened_out) = (ranking.current, ranking.candidates, ranking.screened);
     let report = DiagnosisReport {
         hbis_version: env!("CARGO_PKG_VERSION").to_string(),
         model: s.model.name(),
@@ -255,6 +259,7 @@ pub fn diagnose(
             w
         },
         candidates,
+        screened_out,
         residual,
     };
     Ok(Diagnosis { report, fit })
@@ -326,6 +331,7 @@ pub fn write_diagnosis(
         &d.fit,
         &report.residual,
         &report.candidates,
+        &report.screened_out,
         &report.warnings,
         &svgs,
     );
@@ -386,6 +392,8 @@ pub struct LadderStep {
     pub verdict: String,
     /// Every candidate, best first.
     pub candidates: Vec<RankedCandidate>,
+    /// The candidates screened out by their score test and not refitted.
+    pub screened_out: Vec<Screened>,
     /// When two candidates may stand in for each other.
     pub caution: Option<String>,
     /// The conclusion in one sentence.
@@ -480,6 +488,7 @@ fn ladder_step(s: &Step) -> LadderStep {
         at_budget: s.fit.at_budget,
         verdict: s.diagnosis.verdict.clone(),
         candidates: s.candidates.clone(),
+        screened_out: s.screened_out.clone(),
         caution: s.caution.clone(),
         conclusion: s.conclusion.clone(),
     }

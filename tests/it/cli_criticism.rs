@@ -59,6 +59,8 @@ fn diagnose_writes_the_documented_keys() {
     );
     assert!(html.contains("<td>viscous</td>"), "candidates table");
     assert!(v["residual"]["dominant_frequency_hz"].is_f64());
+    // Screening is for the averaging sensor only (tests/it/sensor.rs).
+    assert_eq!(v["screened_out"], serde_json::json!([]));
     let c = v["candidates"].as_array().unwrap();
     assert_eq!(c[0]["effect"], "viscous", "{c:?}");
     for k in [

@@ -85,6 +85,8 @@ fn hidden_in(
             &missing_form(&model, &ranking.current, &data, &settings).unwrap()
         );
     }
+    // The instantaneous sensor's score measures the staircase: no screen.
+    assert!(ranking.screened.is_empty(), "{:?}", ranking.screened);
     let (fit, ranked) = (ranking.current, ranking.candidates);
     let names: Vec<&str> = ranked.iter().map(|c| c.effect.as_str()).collect();
     assert_eq!(names[0], effect, "ranking {names:?}");

@@ -2,9 +2,10 @@
 //! sample interval) in model criticism: on records made with it, a hidden
 //! effect is ranked first and brings `e2` to the noise floor, and its
 //! refits are local searches (the likelihood is continuous in the event
-//! times), far cheaper than the instantaneous sensor's global ones.
+//! times), far cheaper than the instantaneous sensor's global ones; and
+//! candidates whose score test says they cannot matter are screened out.
 
-use hbis::criticism::diagnose_model;
+use hbis::criticism::diagnose_ranking;
 use hbis::data::synthesize;
 use hbis::inference::{MapSettings, Noise};
 use hbis::model::{Model, Params, Registry};
@@ -12,8 +13,14 @@ use rand::{rngs::StdRng, SeedableRng};
 
 /// `effect` hidden in a record of `truth_spec` (Table 8.1 test `test`, 1.5 %
 /// noise, averaging sensor), diagnosed from `start`: the evaluations of
-/// its best refit.
-fn hidden(effect: &str, start: &str, truth_spec: &str, test: u32, others: &[(&str, f64)]) -> u64 {
+/// its best refit, and the candidates screened out.
+fn hidden(
+    effect: &str,
+    start: &str,
+    truth_spec: &str,
+    test: u32,
+    others: &[(&str, f64)],
+) -> (u64, Vec<String>) {
     let registry = Registry::builtin();
     let truth_model = registry.parse(&format!("{truth_spec}+averaging")).unwrap();
     let truth = truth_model
@@ -35,7 +42,7 @@ fn hidden(effect: &str, start: &str, truth_spec: &str, test: u32, others: &[(&st
         / a.iter().map(|x| x * x).sum::<f64>();
     let data = syn.record.aligned(None).unwrap();
     let model: Model = registry.parse(&format!("{start}+averaging")).unwrap();
-    let (fit, _, ranked) = diagnose_model(
+    let (_, ranking) = diagnose_ranking(
         &registry,
         &model,
         &data,
@@ -44,6 +51,7 @@ fn hidden(effect: &str, start: &str, truth_spec: &str, test: u32, others: &[(&st
         1,
     )
     .unwrap();
+    let (fit, ranked) = (&ranking.current, &ranking.candidates);
     let names: Vec<&str> = ranked.iter().map(|c| c.effect.as_str()).collect();
     assert_eq!(names[0], effect, "ranking {names:?}");
     assert!(ranked[0].supported);
@@ -57,18 +65,23 @@ fn hidden(effect: &str, start: &str, truth_spec: &str, test: u32, others: &[(&st
         "the start already fits: {} vs {floor}",
         fit.e2
     );
-    for c in &ranked {
+    for c in ranked {
         println!(
-            "{}: {} evaluations, {} of {} starts agree",
-            c.effect, c.fit.evaluations, c.agreeing, c.starts
+            "{}: score {:.2}, {} evaluations, {} of {} starts agree",
+            c.effect, c.score, c.fit.evaluations, c.agreeing, c.starts
         );
     }
-    ranked[0].fit.evaluations
+    for c in &ranking.screened {
+        println!("{}: {}", c.effect, c.reason);
+        assert!(c.score < c.threshold && c.threshold > 2.7, "{c:?}");
+    }
+    let screened = ranking.screened.iter().map(|c| c.effect.clone()).collect();
+    (ranked[0].fit.evaluations, screened)
 }
 
 #[test]
 fn hidden_amplitude_dependent_friction_is_found_with_an_averaging_sensor() {
-    let evaluations = hidden(
+    let (evaluations, screened) = hidden(
         "lcfm",
         "trilinear+coulomb+viscous",
         "trilinear+lcfm+viscous",
@@ -78,6 +91,9 @@ fn hidden_amplitude_dependent_friction_is_found_with_an_averaging_sensor() {
     // A local search from the best start (a few thousand evaluations; the
     // instantaneous sensor's global search takes some 20,000 to 200,000).
     assert!(evaluations < 15_000, "{evaluations} evaluations");
+    // Candidates whose score says they cannot matter are not refitted
+    // (here `offset` and `asymmetric-friction`, scores 1.48 and 0.42).
+    assert!(!screened.is_empty(), "nothing screened out");
 }
 
 #[test]
