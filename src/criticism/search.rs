@@ -82,7 +82,7 @@ pub struct Step {
     /// The candidates considered after this model, best first.
     pub candidates: Vec<RankedCandidate>,
     /// The candidates screened out, not refitted
-    /// ([`super::ranking::SCREEN_LEVEL`]).
+    /// ([`super::ranking::SCREEN_MARGIN`]).
     pub screened_out: Vec<Screened>,
     /// When the best candidate is not told apart from another
     /// ([`caution`]).
