@@ -462,7 +462,7 @@ fn step_of(s: &State, node: &Node, added: Option<String>, moves: Vec<Move>, path
 /// From `start`: diagnose, add the best supported effect, remove or swap
 /// what it made redundant, refit, repeat until nothing is supported (or
 /// `max_steps` effects were added on a path); the chosen path's steps.
-/// Step 0 is [`diagnose_model`] with the same seed.
+/// Step 0 is [`diagnose_ranking`] with the same seed.
 #[allow(clippy::too_many_arguments)]
 pub fn ladder(
     registry: &Registry,
