@@ -80,9 +80,10 @@ enum Op {
 /// The code with each binary operation whose right operand is a leaf (a
 /// variable or a number) fused with it: half the dispatches on an
 /// effect's typical `c * abs(v) * v` (`abs` and `sgn`, its commonest
-/// functions, are their own operations, called without a pointer). The same operations on the same
-/// operands in the same order, so the values are the same to the bit. The
-/// stack a fused code needs is at most the unfused code's.
+/// functions, are their own operations, called without a pointer). The
+/// same operations on the same operands in the same order, so the values
+/// are the same to the bit. The stack a fused code needs is at most the
+/// unfused code's.
 fn fuse(code: Vec<Op>) -> Vec<Op> {
     let mut out: Vec<Op> = Vec::with_capacity(code.len());
     for op in code {
