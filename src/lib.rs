@@ -42,7 +42,8 @@
 //! - [`report`]: CSV, `fit.json`, CmdStan chains, figures;
 //! - [`cli`]: the `hbis` command line, arguments and printing over the
 //!   runners;
-//! - [`cancel`]: stopping a run another thread has given up on.
+//! - [`cancel`]: stopping a run another thread has given up on;
+//! - [`parallel`]: running a job on rayon's workers.
 
 // The CLI front end names the library as users do (`hbis::...`).
 extern crate self as hbis;
@@ -54,6 +55,7 @@ pub mod data;
 pub mod inference;
 pub mod model;
 pub mod numeric;
+pub mod parallel;
 pub mod report;
 pub mod study;
 

@@ -134,6 +134,9 @@ fn interruptible<T: Send + 'static>(
         .name("hbis-run".into())
         .stack_size(RUN_STACK)
         .spawn(move || {
+            // On a worker of the pool: the run's parallel calls are split
+            // at once, not handed over (`hbis::parallel`).
+            let work = || hbis::parallel::on_pool(work);
             let _ = tx.send(panic::catch_unwind(AssertUnwindSafe(work)));
         })
         .map_err(|e| PyRuntimeError::new_err(format!("cannot start a thread for the run: {e}")))?;
@@ -1279,6 +1282,7 @@ fn predict_suite<'py>(
 /// The compiled part of the `hbis` package.
 #[pymodule]
 fn _hbis(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    hbis::parallel::init_pool();
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add_function(wrap_pyfunction!(table_8_1, m)?)?;
     m.add_function(wrap_pyfunction!(param_names, m)?)?;

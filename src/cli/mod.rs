@@ -130,7 +130,9 @@ pub struct Unconverged {
 /// Parse the arguments, run, and turn the outcome into an exit code.
 pub fn main() -> ExitCode {
     // clap prints its own usage errors and exits with code 2.
-    dispatch(Cli::parse())
+    let cli = Cli::parse();
+    crate::parallel::init_pool();
+    crate::parallel::on_pool(|| dispatch(cli))
 }
 
 fn dispatch(cli: Cli) -> ExitCode {
