@@ -44,6 +44,7 @@
 //! ```
 
 use nalgebra::DMatrix;
+use rayon::prelude::*;
 use serde::Serialize;
 
 /// The finite-difference step, in conditional standard deviations.
@@ -94,8 +95,12 @@ impl Laplace {
 
 /// Finite-difference Hessian of `f` at `x` with steps `h`, one-sided into
 /// the box `[lo, hi]` where a central step would leave it.
-pub fn hessian<E>(
-    f: &dyn Fn(&[f64]) -> Result<f64, E>,
+///
+/// The entries are computed side by side (rayon), each from its own
+/// evaluations by the same formula: the result does not depend on the
+/// thread count.
+pub fn hessian<E: Send>(
+    f: &(dyn Fn(&[f64]) -> Result<f64, E> + Sync),
     x: &[f64],
     h: &[f64],
     lo: &[f64],
@@ -122,39 +127,44 @@ pub fn hessian<E>(
         }
         f(&y)
     };
-    let mut m = DMatrix::zeros(d, d);
-    for j in 0..d {
-        let room = x[j] - 2.0 * h[j] >= lo[j] && x[j] + 2.0 * h[j] <= hi[j];
-        m[(j, j)] = if side[j] == 0.0 && room {
-            // Without the centre: the MAP of a rugged log-density sits on a
-            // local spike above the bulk's envelope.
-            (at(&[(j, 2.0)])? + at(&[(j, -2.0)])? - at(&[(j, 1.0)])? - at(&[(j, -1.0)])?)
-                / (3.0 * h[j] * h[j])
-        } else if side[j] == 0.0 {
-            (at(&[(j, 1.0)])? - 2.0 * f0 + at(&[(j, -1.0)])?) / (h[j] * h[j])
-        } else {
-            let s = side[j];
-            (at(&[(j, 2.0 * s)])? - 2.0 * at(&[(j, s)])? + f0) / (h[j] * h[j])
-        };
-        for k in 0..j {
-            let v = if side[j] == 0.0 && side[k] == 0.0 {
-                (at(&[(j, 1.0), (k, 1.0)])?
-                    - at(&[(j, 1.0), (k, -1.0)])?
-                    - at(&[(j, -1.0), (k, 1.0)])?
-                    + at(&[(j, -1.0), (k, -1.0)])?)
-                    / (4.0 * h[j] * h[k])
+    let entry = |j: usize, k: usize| -> Result<f64, E> {
+        if j == k {
+            let room = x[j] - 2.0 * h[j] >= lo[j] && x[j] + 2.0 * h[j] <= hi[j];
+            return Ok(if side[j] == 0.0 && room {
+                // Without the centre: the MAP of a rugged log-density sits on a
+                // local spike above the bulk's envelope.
+                (at(&[(j, 2.0)])? + at(&[(j, -2.0)])? - at(&[(j, 1.0)])? - at(&[(j, -1.0)])?)
+                    / (3.0 * h[j] * h[j])
+            } else if side[j] == 0.0 {
+                (at(&[(j, 1.0)])? - 2.0 * f0 + at(&[(j, -1.0)])?) / (h[j] * h[j])
             } else {
-                // Forward differences along the one-sided directions.
-                let (sj, sk) = (
-                    if side[j] == 0.0 { 1.0 } else { side[j] },
-                    if side[k] == 0.0 { 1.0 } else { side[k] },
-                );
-                (at(&[(j, sj), (k, sk)])? - at(&[(j, sj)])? - at(&[(k, sk)])? + f0)
-                    / (sj * sk * h[j] * h[k])
-            };
-            m[(j, k)] = v;
-            m[(k, j)] = v;
+                let s = side[j];
+                (at(&[(j, 2.0 * s)])? - 2.0 * at(&[(j, s)])? + f0) / (h[j] * h[j])
+            });
         }
+        Ok(if side[j] == 0.0 && side[k] == 0.0 {
+            (at(&[(j, 1.0), (k, 1.0)])? - at(&[(j, 1.0), (k, -1.0)])? - at(&[(j, -1.0), (k, 1.0)])?
+                + at(&[(j, -1.0), (k, -1.0)])?)
+                / (4.0 * h[j] * h[k])
+        } else {
+            // Forward differences along the one-sided directions.
+            let (sj, sk) = (
+                if side[j] == 0.0 { 1.0 } else { side[j] },
+                if side[k] == 0.0 { 1.0 } else { side[k] },
+            );
+            (at(&[(j, sj), (k, sk)])? - at(&[(j, sj)])? - at(&[(k, sk)])? + f0)
+                / (sj * sk * h[j] * h[k])
+        })
+    };
+    let pairs: Vec<(usize, usize)> = (0..d)
+        .flat_map(|j| std::iter::once((j, j)).chain((0..j).map(move |k| (j, k))))
+        .collect();
+    let values: Vec<Result<f64, E>> = pairs.par_iter().map(|&(j, k)| entry(j, k)).collect();
+    let mut m = DMatrix::zeros(d, d);
+    for (&(j, k), v) in pairs.iter().zip(values) {
+        let v = v?;
+        m[(j, k)] = v;
+        m[(k, j)] = v;
     }
     Ok(m)
 }
@@ -236,8 +246,8 @@ pub const BULK_STEP: f64 = 1e-6;
 /// let h = |x: &[f64]| Ok::<f64, ()>(-(x[0] - 0.3).powi(2));
 /// assert!(bulk_value(&h, &[0.3, 0.0], &[-1.0, -1.0], &[1.0, 1.0]).unwrap().abs() < 1e-10);
 /// ```
-pub fn bulk_value<E>(
-    f: &dyn Fn(&[f64]) -> Result<f64, E>,
+pub fn bulk_value<E: Send>(
+    f: &(dyn Fn(&[f64]) -> Result<f64, E> + Sync),
     x: &[f64],
     lo: &[f64],
     hi: &[f64],
@@ -259,8 +269,11 @@ pub struct Neighbourhood {
 }
 
 /// The median and the log-mean-exp of `f` on [`bulk_value`]'s design.
-pub fn neighbourhood<E>(
-    f: &dyn Fn(&[f64]) -> Result<f64, E>,
+///
+/// The points are evaluated side by side (rayon), the values kept in the
+/// design's order: the result does not depend on the thread count.
+pub fn neighbourhood<E: Send>(
+    f: &(dyn Fn(&[f64]) -> Result<f64, E> + Sync),
     x: &[f64],
     lo: &[f64],
     hi: &[f64],
@@ -275,9 +288,10 @@ pub fn neighbourhood<E>(
             -1.0
         }
     };
-    let mut values = Vec::with_capacity(2 * order);
-    for i in 1..order {
-        for flip in [1.0, -1.0] {
+    let points: Vec<(usize, f64)> = (1..order).flat_map(|i| [(i, 1.0), (i, -1.0)]).collect();
+    let evaluated: Vec<Result<f64, E>> = points
+        .par_iter()
+        .map(|&(i, flip)| {
             // Clamped: a MAP on a bound moves only into the box there.
             let y: Vec<f64> = (0..d)
                 .map(|j| {
@@ -285,10 +299,14 @@ pub fn neighbourhood<E>(
                     (x[j] + step).clamp(lo[j], hi[j])
                 })
                 .collect();
-            let v = f(&y)?;
-            if v.is_finite() {
-                values.push(v);
-            }
+            f(&y)
+        })
+        .collect();
+    let mut values = Vec::with_capacity(2 * order);
+    for v in evaluated {
+        let v = v?;
+        if v.is_finite() {
+            values.push(v);
         }
     }
     if values.is_empty() {
@@ -319,45 +337,59 @@ pub fn neighbourhood<E>(
 /// side kept and divided by `sqrt(2 drop)` (one sd of a Gaussian). The
 /// larger side, because a MAP of a piecewise smooth density often sits at
 /// the edge of a small jump, which one side meets at once.
-pub fn axis_scales<E>(
-    f: &dyn Fn(&[f64]) -> Result<f64, E>,
+///
+/// The `2 d` one-sided searches run side by side (rayon): the result does
+/// not depend on the thread count.
+pub fn axis_scales<E: Send>(
+    f: &(dyn Fn(&[f64]) -> Result<f64, E> + Sync),
     center: &[f64],
     f0: f64,
     range: &[f64],
     drop: f64,
 ) -> Result<Vec<f64>, E> {
+    // The distance at which the fall reaches `drop` along `sign` on axis `k`.
+    let side = |k: usize, sign: f64| -> Result<f64, E> {
+        let fall = |t: f64| -> Result<f64, E> {
+            let mut x = center.to_vec();
+            x[k] += sign * t;
+            Ok(f0 - f(&x)?)
+        };
+        let (mut a, mut b) = (0.0, 1e-9 * range[k]);
+        while fall(b)? < drop && b < range[k] {
+            a = b;
+            b *= 2.0;
+        }
+        if b >= range[k] {
+            return Ok(range[k]);
+        }
+        for _ in 0..40 {
+            let m = 0.5 * (a + b);
+            if fall(m)? < drop {
+                a = m;
+            } else {
+                b = m;
+            }
+        }
+        Ok(0.5 * (a + b))
+    };
+    let searches: Vec<(usize, f64)> = (0..center.len())
+        .flat_map(|k| [(k, 1.0), (k, -1.0)])
+        .collect();
+    let mut found = searches
+        .par_iter()
+        .map(|&(k, sign)| side(k, sign))
+        .collect::<Vec<_>>()
+        .into_iter();
     let mut out = Vec::with_capacity(center.len());
-    for k in 0..center.len() {
+    for r in &range[..center.len()] {
         let mut best: f64 = 0.0;
-        for sign in [1.0, -1.0] {
-            let fall = |t: f64| -> Result<f64, E> {
-                let mut x = center.to_vec();
-                x[k] += sign * t;
-                Ok(f0 - f(&x)?)
-            };
-            let (mut a, mut b) = (0.0, 1e-9 * range[k]);
-            while fall(b)? < drop && b < range[k] {
-                a = b;
-                b *= 2.0;
-            }
-            if b >= range[k] {
-                best = best.max(range[k]);
-                continue;
-            }
-            for _ in 0..40 {
-                let m = 0.5 * (a + b);
-                if fall(m)? < drop {
-                    a = m;
-                } else {
-                    b = m;
-                }
-            }
-            best = best.max(0.5 * (a + b));
+        for _ in 0..2 {
+            best = best.max(found.next().expect("two searches per axis")?);
         }
         out.push(if best > 0.0 {
             best / (2.0 * drop).sqrt()
         } else {
-            1e-6 * range[k]
+            1e-6 * r
         });
     }
     Ok(out)
