@@ -49,6 +49,7 @@
 
 use rand::rngs::StdRng;
 use rand::{RngExt, SeedableRng};
+use rayon::prelude::*;
 use serde::Serialize;
 use thiserror::Error;
 
@@ -610,8 +611,15 @@ fn multi_start(
     let per_start = local_from_warm(true, settings)?;
     let n = starts.len();
     let mut fits = Vec::new();
-    for s in starts {
-        match map_of(&c.model, data, noise, Some(s), &per_start, rng.random()) {
+    // The seeds drawn in order, the starts run side by side: the same fits
+    // as one after the other (each depends on its seed alone).
+    let seeded: Vec<(Vec<f64>, u64)> = starts.into_iter().map(|s| (s, rng.random())).collect();
+    let results: Vec<_> = seeded
+        .into_par_iter()
+        .map(|(s, seed)| map_of(&c.model, data, noise, Some(s), &per_start, seed))
+        .collect();
+    for result in results {
+        match result {
             Ok(fit) => fits.push(fit),
             // A spread start where the density is zero, which a local
             // search cannot leave.

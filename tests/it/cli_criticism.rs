@@ -3,7 +3,7 @@
 
 use crate::bin;
 
-use bin::{hbis, stderr};
+use bin::{hbis, hbis_with, stderr};
 
 use std::path::Path;
 
@@ -80,6 +80,34 @@ fn diagnose_writes_the_documented_keys() {
     for f in ["residual.png", "residual-map.png"] {
         assert!(d.path().join("dx").join(f).exists(), "{f}");
     }
+}
+
+/// `diagnose`'s report does not depend on the thread count: its refit
+/// starts, Hessians and neighbourhoods are evaluated side by side
+/// (`hbis::parallel`, `criticism::ranking`'s multi-start).
+#[test]
+fn diagnose_is_the_same_on_one_thread_and_on_three() {
+    let d = tempfile::tempdir().unwrap();
+    record(d.path());
+    let args = |out: &'static str| {
+        [
+            "diagnose",
+            "--data",
+            "rec.csv",
+            "--model",
+            "trilinear+lcfm",
+            "--candidates",
+            "viscous,offset,friction-decay",
+            "--out",
+            out,
+        ]
+    };
+    let one = hbis_with(d.path(), &args("one"), "1");
+    assert!(one.status.success(), "{}", stderr(&one));
+    let three = hbis_with(d.path(), &args("three"), "3");
+    assert!(three.status.success(), "{}", stderr(&three));
+    let read = |p: &str| std::fs::read_to_string(d.path().join(p)).unwrap();
+    assert_eq!(read("one/diagnosis.json"), read("three/diagnosis.json"));
 }
 
 /// The record of [`record`] held for 0.3 s first, released 2.3 ms before
