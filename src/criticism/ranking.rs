@@ -698,7 +698,29 @@ pub fn rank_candidates(
     settings: &MapSettings,
     seed: u64,
 ) -> Result<Ranking, CriticismError> {
-    rank_from(registry, current, fit, data, settings, seed, true)
+    rank_from(
+        registry,
+        current,
+        fit,
+        data,
+        settings,
+        seed,
+        Asked {
+            again: true,
+            form: false,
+        },
+    )
+}
+
+/// What [`rank_from`] does besides ranking.
+#[derive(Debug, Clone, Copy)]
+struct Asked {
+    /// Rank again (once) from a better fit of the current model.
+    again: bool,
+    /// Describe the missing form whatever the gates say (a diagnosis
+    /// reports it): it is then computed beside the numerical baseline's
+    /// improvement instead of after it.
+    form: bool,
 }
 
 /// The current model's fit improved by more than this (nats) while the
@@ -706,7 +728,7 @@ pub fn rank_candidates(
 pub const RERANK: f64 = 10.0;
 
 /// [`rank_candidates`]; when the baseline's refits from the candidates'
-/// basins improve the current fit by more than [`RERANK`] and `again`,
+/// basins improve the current fit by more than [`RERANK`] and `asked.again`,
 /// the warm starts came from the wrong basin, and the ranking is made
 /// again (once) from the better fit. On a calibration record with a hidden
 /// stiffness degradation (seed 372849118615) the current fit improved by
@@ -718,7 +740,7 @@ fn rank_from(
     data: &Aligned,
     settings: &MapSettings,
     seed: u64,
-    again: bool,
+    asked: Asked,
 ) -> Result<Ranking, CriticismError> {
     let noise = fit.noise;
     let theta_now = fit.model_theta(current);
@@ -747,64 +769,68 @@ fn rank_from(
     // With an averaging sensor the likelihood has no such jump and the
     // engines agree to about 3e-6 m/s^2 per mean (some 0.04 nats at 1.5 %
     // noise): no second baseline.
-    let mut numeric_baseline = if current.closed_form()
+    let baseline_seed: Option<u64> = (current.closed_form()
         && !current.interval_mean()
-        && cands.iter().any(|c| !c.model.closed_form())
-    {
-        let numeric = current.clone().numerically();
-        let refit = fit_model(
-            &numeric,
-            data,
-            noise,
-            Some(theta_now.to_vec()),
-            &numeric_budget,
-            rng.random(),
-        )?;
-        Some(refit)
-    } else {
-        None
+        && cands.iter().any(|c| !c.model.closed_form()))
+    .then(|| rng.random());
+    let numeric_baseline = || {
+        baseline_seed
+            .map(|seed| {
+                let numeric = current.clone().numerically();
+                let start = Some(theta_now.to_vec());
+                fit_model(&numeric, data, noise, start, &numeric_budget, seed)
+            })
+            .transpose()
     };
     let old = current.param_names();
     let strained = strained(current, theta_now);
-    let mut refits = Vec::new();
-    let mut screened = Vec::new();
-    for c in cands {
-        let new: Vec<usize> = c
-            .model
-            .param_names()
-            .iter()
-            .enumerate()
-            .filter(|(_, n)| !old.contains(n))
-            .map(|(i, _)| i)
-            .collect();
-        let budget = if c.model.closed_form() {
-            settings
-        } else {
-            &numeric_budget
-        };
-        let score = score_test(&c.model, &c.start, &new, data, &nuisance);
-        if let Some(out) = screen(current, &c, score, new.len(), data.a.len()) {
-            screened.push(out);
-            continue;
+    // Beside the numerical baseline (its seed drawn first, as when it ran
+    // first): the same fits.
+    let refit_all = || -> Result<(Vec<Refit>, Vec<Screened>), CriticismError> {
+        let mut refits = Vec::new();
+        let mut screened = Vec::new();
+        for c in cands {
+            let new: Vec<usize> = c
+                .model
+                .param_names()
+                .iter()
+                .enumerate()
+                .filter(|(_, n)| !old.contains(n))
+                .map(|(i, _)| i)
+                .collect();
+            let budget = if c.model.closed_form() {
+                settings
+            } else {
+                &numeric_budget
+            };
+            let score = score_test(&c.model, &c.start, &new, data, &nuisance);
+            if let Some(out) = screen(current, &c, score, new.len(), data.a.len()) {
+                screened.push(out);
+                continue;
+            }
+            // The numerical engine costs some 16 to 30 times the closed form: one
+            // spread start (mid-range) instead of two.
+            let spread: &[f64] = if c.model.closed_form() {
+                &[0.25, 0.75]
+            } else {
+                &[0.5]
+            };
+            let (refit, n_starts, agreeing) = multi_start(
+                &c,
+                starts(&c, &new, spread, data),
+                strained,
+                data,
+                noise,
+                budget,
+                &mut rng,
+            )?;
+            refits.push((c, score, refit, n_starts, agreeing, new));
         }
-        // The numerical engine costs some 16 to 30 times the closed form: one
-        // spread start (mid-range) instead of two.
-        let spread: &[f64] = if c.model.closed_form() {
-            &[0.25, 0.75]
-        } else {
-            &[0.5]
-        };
-        let (refit, n_starts, agreeing) = multi_start(
-            &c,
-            starts(&c, &new, spread, data),
-            strained,
-            data,
-            noise,
-            budget,
-            &mut rng,
-        )?;
-        refits.push((c, score, refit, n_starts, agreeing, new));
-    }
+        Ok((refits, screened))
+    };
+    let (numeric_baseline, refitted) = rayon::join(numeric_baseline, refit_all);
+    let mut numeric_baseline = numeric_baseline?;
+    let (refits, screened) = refitted?;
     // A candidate must not look supported because its refit found a better
     // basin of the parameters the current model has too.
     let fit_in = fit;
@@ -823,22 +849,31 @@ fn rank_from(
         rng.random(),
         false,
     )?;
-    if again && fit.log_likelihood > fit_in.log_likelihood + RERANK {
-        return rank_from(registry, current, &fit, data, settings, rng.random(), false);
-    }
-    if let Some(base) = &mut numeric_baseline {
-        let numeric = current.clone().numerically();
-        improve_baseline(
-            &numeric,
-            base,
-            &refits,
-            data,
-            &numeric_budget,
-            rng.random(),
-            true,
-        )?;
+    if asked.again && fit.log_likelihood > fit_in.log_likelihood + RERANK {
+        let asked = Asked {
+            again: false,
+            ..asked
+        };
+        return rank_from(registry, current, &fit, data, settings, rng.random(), asked);
     }
     let fit = &fit;
+    let improve_seed: Option<u64> = numeric_baseline.is_some().then(|| rng.random());
+    let improve_numeric = || -> Result<(), CriticismError> {
+        if let (Some(base), Some(seed)) = (&mut numeric_baseline, improve_seed) {
+            let numeric = current.clone().numerically();
+            improve_baseline(&numeric, base, &refits, data, &numeric_budget, seed, true)?;
+        }
+        Ok(())
+    };
+    let early_form = || {
+        asked
+            .form
+            .then(|| missing_form(current, fit, data, settings))
+            .transpose()
+    };
+    let (improved, early_form) = rayon::join(improve_numeric, early_form);
+    improved?;
+    let early_form = early_form?;
     // Kept only where it fits better than the closed-form fit (above).
     let numeric_baseline = numeric_baseline.filter(|b| b.log_likelihood > fit.log_likelihood);
     let features_now = diagnosis_of(current, fit, data)?.features;
@@ -848,7 +883,7 @@ fn rank_from(
         None => None,
     };
     let mut out = Vec::new();
-    let mut form: Option<MissingForm> = None;
+    let mut form: Option<MissingForm> = early_form;
     let fit_now = fit;
     for (c, score, refit, n_starts, agreeing, new) in refits {
         let physical_size = physical_size(&c.model, &refit.theta, &new);
@@ -1904,9 +1939,9 @@ pub fn diagnose_model(
     Ok((ranking.current, diagnosis, ranking.candidates))
 }
 
-/// [`diagnose_model`] with the whole [`Ranking`] (the start model's fit in
-/// [`Ranking::current`], and the missing form where the gates computed
-/// one).
+/// [`diagnose_model`] with the whole [`Ranking`]: the start model's fit
+/// in [`Ranking::current`], and the missing form of that fit in
+/// [`Ranking::form`] (always set).
 pub fn diagnose_ranking(
     registry: &Registry,
     model: &Model,
@@ -1915,8 +1950,32 @@ pub fn diagnose_ranking(
     settings: &MapSettings,
     seed: u64,
 ) -> Result<(Diagnostics, Ranking), CriticismError> {
+    start_ranking(registry, model, data, noise, settings, seed, true)
+}
+
+/// [`diagnose_ranking`]; the missing form only where the gates need it
+/// unless `form` (the ladder's first step: its form is described at the
+/// end, of the last step's fit).
+pub(super) fn start_ranking(
+    registry: &Registry,
+    model: &Model,
+    data: &Aligned,
+    noise: Noise,
+    settings: &MapSettings,
+    seed: u64,
+    form: bool,
+) -> Result<(Diagnostics, Ranking), CriticismError> {
     let fit = start_fit(model, data, noise, settings, seed)?;
-    let ranking = rank_candidates(registry, model, &fit, data, settings, seed.wrapping_add(1))?;
+    let asked = Asked { again: true, form };
+    let ranking = rank_from(
+        registry,
+        model,
+        &fit,
+        data,
+        settings,
+        seed.wrapping_add(1),
+        asked,
+    )?;
     let diagnosis = diagnosis_of(model, &ranking.current, data)?;
     Ok((diagnosis, ranking))
 }

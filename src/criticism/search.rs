@@ -41,8 +41,8 @@ use rand::{RngExt, SeedableRng};
 use serde::Serialize;
 
 use super::ranking::{
-    adopt, caution, conclusion, diagnose_ranking, diagnosis_of, fit_model, rank_candidates,
-    replace_release, CriticismError, ModelFit, RankedCandidate, Screened,
+    adopt, caution, conclusion, diagnosis_of, fit_model, rank_candidates, replace_release,
+    start_ranking, CriticismError, ModelFit, RankedCandidate, Screened,
 };
 use super::residuals::Diagnostics;
 use crate::data::Aligned;
@@ -462,7 +462,8 @@ fn step_of(s: &State, node: &Node, added: Option<String>, moves: Vec<Move>, path
 /// From `start`: diagnose, add the best supported effect, remove or swap
 /// what it made redundant, refit, repeat until nothing is supported (or
 /// `max_steps` effects were added on a path); the chosen path's steps.
-/// Step 0 is [`diagnose_ranking`] with the same seed.
+/// Step 0 is [`super::diagnose_ranking`] with the same seed (the same
+/// ranking; its missing form is left to the end).
 #[allow(clippy::too_many_arguments)]
 pub fn ladder(
     registry: &Registry,
@@ -500,7 +501,7 @@ pub fn ladder_observed(
     max_steps: usize,
     on_step: &mut dyn FnMut(&Step),
 ) -> Result<Search, CriticismError> {
-    let (diagnosis, ranking) = diagnose_ranking(registry, &start, data, noise, settings, seed)?;
+    let (diagnosis, ranking) = start_ranking(registry, &start, data, noise, settings, seed, false)?;
     let fit = ranking.current;
     let node = Node {
         fit: fit.clone(),
