@@ -106,11 +106,85 @@ fn fuse(code: Vec<Op>) -> Vec<Op> {
     out
 }
 
-/// A compiled expression: postfix code over numbered variables.
-#[derive(Debug, Clone)]
+/// A compiled expression: postfix code over numbered variables, and the
+/// same code as nested closures ([`tree`]) that [`Expr::eval`] runs.
+#[derive(Clone)]
 pub struct Expr {
     code: Vec<Op>,
     text: String,
+    tree: Option<Node>,
+}
+
+impl std::fmt::Debug for Expr {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Expr")
+            .field("code", &self.code)
+            .field("text", &self.text)
+            .finish_non_exhaustive()
+    }
+}
+
+/// A node of [`tree`]: its value at the variables.
+type Node = std::sync::Arc<dyn Fn(&[f64]) -> f64 + Send + Sync>;
+
+/// Longest code run as closures: their evaluation recurses once per
+/// nesting level, which a long chain of terms makes as deep as it is long.
+/// Longer code runs on the stack machine ([`Expr::run`]).
+const TREE_MAX: usize = 256;
+
+/// `code` as nested closures, each operation one closure over its
+/// operands: the same operations on the same operands (left operand
+/// first), so the values are the stack machine's to the bit. The
+/// stack machine dispatches every operation through one indirect jump,
+/// which the processor mispredicts along an expression; each closure calls
+/// its operands from its own code. `None` for code longer than
+/// [`TREE_MAX`].
+fn tree(code: &[Op]) -> Option<Node> {
+    use std::sync::Arc;
+    if code.len() > TREE_MAX {
+        return None;
+    }
+    let mut st: Vec<Node> = Vec::with_capacity(MAX_DEPTH);
+    for &op in code {
+        let node: Node = match op {
+            Op::Num(v) => Arc::new(move |_: &[f64]| v),
+            Op::Var(i) => Arc::new(move |x: &[f64]| x[i]),
+            Op::Add | Op::Sub | Op::Mul | Op::Div | Op::Pow | Op::F2(_) => {
+                let b = st.pop()?;
+                let a = st.pop()?;
+                match op {
+                    Op::Add => Arc::new(move |x: &[f64]| a(x) + b(x)),
+                    Op::Sub => Arc::new(move |x: &[f64]| a(x) - b(x)),
+                    Op::Mul => Arc::new(move |x: &[f64]| a(x) * b(x)),
+                    Op::Div => Arc::new(move |x: &[f64]| a(x) / b(x)),
+                    Op::Pow => Arc::new(move |x: &[f64]| a(x).powf(b(x))),
+                    Op::F2(f) => Arc::new(move |x: &[f64]| f(a(x), b(x))),
+                    _ => unreachable!("binary operations only"),
+                }
+            }
+            unary => {
+                let a = st.pop()?;
+                match unary {
+                    Op::Neg => Arc::new(move |x: &[f64]| -a(x)),
+                    Op::F1(f) => Arc::new(move |x: &[f64]| f(a(x))),
+                    Op::Abs => Arc::new(move |x: &[f64]| a(x).abs()),
+                    Op::Sgn => Arc::new(move |x: &[f64]| sgn(a(x))),
+                    Op::AddV(i) => Arc::new(move |x: &[f64]| a(x) + x[i]),
+                    Op::SubV(i) => Arc::new(move |x: &[f64]| a(x) - x[i]),
+                    Op::MulV(i) => Arc::new(move |x: &[f64]| a(x) * x[i]),
+                    Op::DivV(i) => Arc::new(move |x: &[f64]| a(x) / x[i]),
+                    Op::AddN(c) => Arc::new(move |x: &[f64]| a(x) + c),
+                    Op::SubN(c) => Arc::new(move |x: &[f64]| a(x) - c),
+                    Op::MulN(c) => Arc::new(move |x: &[f64]| a(x) * c),
+                    Op::DivN(c) => Arc::new(move |x: &[f64]| a(x) / c),
+                    _ => unreachable!("leaves and binary operations handled above"),
+                }
+            }
+        };
+        st.push(node);
+    }
+    let root = st.pop()?;
+    st.is_empty().then_some(root)
 }
 
 fn sgn(x: f64) -> f64 {
@@ -172,8 +246,10 @@ impl Expr {
     /// Compiles `text`; `vars` names the variables, in the order of the
     /// slice [`eval`](Self::eval) takes.
     pub fn compile(text: &str, vars: &[&str]) -> Result<Self, ExprError> {
+        let code = fuse(parse(text, vars)?);
         Ok(Self {
-            code: fuse(parse(text, vars)?),
+            tree: tree(&code),
+            code,
             text: text.to_string(),
         })
     }
@@ -193,6 +269,14 @@ impl Expr {
     /// Its value with the variables `x` (in the order given to
     /// [`compile`](Self::compile)); no allocation.
     pub fn eval(&self, x: &[f64]) -> f64 {
+        match &self.tree {
+            Some(root) => root(x),
+            None => self.run(x),
+        }
+    }
+
+    /// Its value, by the stack machine.
+    fn run(&self, x: &[f64]) -> f64 {
         let mut st = [0.0f64; MAX_DEPTH];
         let mut n = 0usize;
         for op in &self.code {
@@ -484,9 +568,9 @@ mod tests {
         assert_eq!(eval("--3", &[], &[]), 3.0);
     }
 
-    /// The fused code computes what the parser's code computes, to the
-    /// bit, on expressions with every fused operation, on values of both
-    /// signs, zeros and magnitudes far apart.
+    /// The closures and the fused code compute what the parser's code
+    /// computes, to the bit, on expressions with every fused operation, on
+    /// values of both signs, zeros and magnitudes far apart.
     #[test]
     fn fused_code_is_the_parsed_code_to_the_bit() {
         let vars = ["u", "v", "q", "c"];
@@ -505,21 +589,36 @@ mod tests {
             let plain = Expr {
                 code: parse(text, &vars).unwrap(),
                 text: text.to_string(),
+                tree: None,
             };
+            assert!(fused.tree.is_some(), "{text}: no closures");
             assert!(fused.code.len() < plain.code.len(), "{text}: nothing fused");
             for (i, &a) in values.iter().enumerate() {
                 for &b in &values[i..] {
                     let x = [a, b, 0.5 * a - b, b.abs() + 0.1];
-                    let (f, p) = (fused.eval(&x), plain.eval(&x));
-                    assert!(
-                        f.to_bits() == p.to_bits() || (f.is_nan() && p.is_nan()),
-                        "{text} at {x:?}: {f} against {p}"
-                    );
+                    // The closures, the fused code, the parser's code.
+                    let (f, s, p) = (fused.eval(&x), fused.run(&x), plain.eval(&x));
+                    for (name, y) in [("closures", f), ("fused code", s)] {
+                        assert!(
+                            y.to_bits() == p.to_bits() || (y.is_nan() && p.is_nan()),
+                            "{text} at {x:?}: {name} {y} against {p}"
+                        );
+                    }
                     checked += 1;
                 }
             }
         }
         assert_eq!(checked, 6 * 36);
+    }
+
+    /// Code longer than [`TREE_MAX`] runs on the stack machine.
+    #[test]
+    fn a_long_chain_of_terms_runs_on_the_stack_machine() {
+        let text = vec!["u * 2"; 200].join(" + ");
+        let e = Expr::compile(&text, &["u"]).unwrap();
+        assert!(e.tree.is_none());
+        assert_eq!(e.eval(&[0.5]), 200.0);
+        assert!(Expr::compile("u * 2 + u", &["u"]).unwrap().tree.is_some());
     }
 
     #[test]
