@@ -1,5 +1,6 @@
 //! Arithmetic expressions of effect files, compiled once to a small stack
-//! program and evaluated without allocation.
+//! program and to nested closures ([`Expr::eval`] runs the closures), and
+//! evaluated without allocation.
 //!
 //! Why our own: an effect's force is evaluated at every stage of every step
 //! of the numerical engine (some 10^4 times per record), so evaluation must
