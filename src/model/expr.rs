@@ -108,7 +108,7 @@ fn fuse(code: Vec<Op>) -> Vec<Op> {
 }
 
 /// A compiled expression: postfix code over numbered variables, and the
-/// same code as nested closures ([`tree`]) that [`Expr::eval`] runs.
+/// same code as nested closures that [`Expr::eval`] runs.
 #[derive(Clone)]
 pub struct Expr {
     code: Vec<Op>,
