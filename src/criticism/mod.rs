@@ -18,8 +18,8 @@ pub mod search;
 pub use missing_form::{missing_form, FormSeries, MissingForm, Term};
 pub use ranking::{
     adopt, caution, choose_noise, conclusion, diagnose_model, diagnose_ranking, diagnosis_of,
-    fit_model, place_release, priors_for, rank_candidates, short_lag_limit, CriticismError,
-    ModelFit, NoiseChoice, RankedCandidate, Ranking, Screened,
+    fit_model, place_release, priors_for, rank_candidates, rank_described, short_lag_limit,
+    CriticismError, ModelFit, NoiseChoice, RankedCandidate, Ranking, Screened,
 };
 pub use residuals::{diagnose, Diagnostics};
 pub use search::{ladder, ladder_observed, Move, PathEnd, Search, Step};

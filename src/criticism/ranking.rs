@@ -712,6 +712,24 @@ pub fn rank_candidates(
     )
 }
 
+/// [`rank_candidates`], with the missing form of [`Ranking::current`]
+/// always described ([`Ranking::form`] set): beside the numerical
+/// baseline's improvement, where the gates would describe it later.
+pub fn rank_described(
+    registry: &Registry,
+    current: &Model,
+    fit: &ModelFit,
+    data: &Aligned,
+    settings: &MapSettings,
+    seed: u64,
+) -> Result<Ranking, CriticismError> {
+    let asked = Asked {
+        again: true,
+        form: true,
+    };
+    rank_from(registry, current, fit, data, settings, seed, asked)
+}
+
 /// What [`rank_from`] does besides ranking.
 #[derive(Debug, Clone, Copy)]
 struct Asked {
@@ -1984,32 +2002,8 @@ pub fn diagnose_ranking(
     settings: &MapSettings,
     seed: u64,
 ) -> Result<(Diagnostics, Ranking), CriticismError> {
-    start_ranking(registry, model, data, noise, settings, seed, true)
-}
-
-/// [`diagnose_ranking`]; the missing form only where the gates need it
-/// unless `form` (the ladder's first step: its form is described at the
-/// end, of the last step's fit).
-pub(super) fn start_ranking(
-    registry: &Registry,
-    model: &Model,
-    data: &Aligned,
-    noise: Noise,
-    settings: &MapSettings,
-    seed: u64,
-    form: bool,
-) -> Result<(Diagnostics, Ranking), CriticismError> {
     let fit = start_fit(model, data, noise, settings, seed)?;
-    let asked = Asked { again: true, form };
-    let ranking = rank_from(
-        registry,
-        model,
-        &fit,
-        data,
-        settings,
-        seed.wrapping_add(1),
-        asked,
-    )?;
+    let ranking = rank_described(registry, model, &fit, data, settings, seed.wrapping_add(1))?;
     let diagnosis = diagnosis_of(model, &ranking.current, data)?;
     Ok((diagnosis, ranking))
 }

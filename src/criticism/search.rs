@@ -6,7 +6,7 @@
 //! Every move lowers BIC, so no model is visited twice and the search
 //! ends:
 //! - **add** the best accepted candidate of the current model's ranking
-//!   ([`rank_candidates`], whose gates keep out an effect that stands in
+//!   ([`rank_described`], whose gates keep out an effect that stands in
 //!   for another);
 //! - after each addition, **remove** an effect the ladder added earlier
 //!   when the model without it, refitted from the current MAP, has the
@@ -40,9 +40,10 @@ use rand::rngs::StdRng;
 use rand::{RngExt, SeedableRng};
 use serde::Serialize;
 
+use super::missing_form::MissingForm;
 use super::ranking::{
-    adopt, caution, conclusion, diagnosis_of, fit_model, rank_candidates, replace_release,
-    start_ranking, CriticismError, ModelFit, RankedCandidate, Screened,
+    adopt, caution, conclusion, diagnose_ranking, diagnosis_of, fit_model, rank_described,
+    replace_release, CriticismError, ModelFit, RankedCandidate, Screened,
 };
 use super::residuals::Diagnostics;
 use crate::data::Aligned;
@@ -92,6 +93,9 @@ pub struct Step {
     /// The fit.
     #[serde(skip)]
     pub fit: ModelFit,
+    /// The missing form of this fit ([`rank_described`]).
+    #[serde(skip)]
+    pub form: Option<MissingForm>,
 }
 
 /// A move of the search, with the BIC it changed.
@@ -144,6 +148,7 @@ struct Node {
     diagnosis: Diagnostics,
     candidates: Vec<RankedCandidate>,
     screened: Vec<Screened>,
+    form: Option<MissingForm>,
 }
 
 /// An effect the ladder added, with every candidate accepted at the same
@@ -181,14 +186,14 @@ fn key(model: &Model, data: &Aligned) -> String {
 
 impl Searcher<'_> {
     /// The ranking of `s`'s model (cached): its fit may improve on the
-    /// one given ([`rank_candidates`]).
+    /// one given ([`rank_described`]).
     fn node(&mut self, s: &mut State) -> Result<Node, CriticismError> {
         let k = key(&s.model, &s.data);
         if let Some(n) = self.nodes.get(&k) {
             s.fit = n.fit.clone();
             return Ok(n.clone());
         }
-        let ranking = rank_candidates(
+        let ranking = rank_described(
             self.registry,
             &s.model,
             &s.fit,
@@ -201,6 +206,7 @@ impl Searcher<'_> {
             fit: ranking.current,
             candidates: ranking.candidates,
             screened: ranking.screened,
+            form: ranking.form,
         };
         s.fit = node.fit.clone();
         self.nodes.insert(k, node.clone());
@@ -456,14 +462,14 @@ fn step_of(s: &State, node: &Node, added: Option<String>, moves: Vec<Move>, path
         caution: caution(&node.candidates),
         conclusion: conclusion(&node.diagnosis, &node.candidates),
         fit: node.fit.clone(),
+        form: node.form.clone(),
     }
 }
 
 /// From `start`: diagnose, add the best supported effect, remove or swap
 /// what it made redundant, refit, repeat until nothing is supported (or
 /// `max_steps` effects were added on a path); the chosen path's steps.
-/// Step 0 is [`super::diagnose_ranking`] with the same seed (the same
-/// ranking; its missing form is left to the end).
+/// Step 0 is [`diagnose_ranking`] with the same seed.
 #[allow(clippy::too_many_arguments)]
 pub fn ladder(
     registry: &Registry,
@@ -501,13 +507,14 @@ pub fn ladder_observed(
     max_steps: usize,
     on_step: &mut dyn FnMut(&Step),
 ) -> Result<Search, CriticismError> {
-    let (diagnosis, ranking) = start_ranking(registry, &start, data, noise, settings, seed, false)?;
+    let (diagnosis, ranking) = diagnose_ranking(registry, &start, data, noise, settings, seed)?;
     let fit = ranking.current;
     let node = Node {
         fit: fit.clone(),
         diagnosis,
         candidates: ranking.candidates,
         screened: ranking.screened,
+        form: ranking.form,
     };
     let s = State {
         model: start,

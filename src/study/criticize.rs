@@ -454,7 +454,11 @@ pub fn ladder(
         .data
         .clone()
         .with_lag(steps.last().map_or(s.data.lag, |x| x.lag));
+    // The last step's ranking described it, on the same samples and lag.
     let missing = match steps.last() {
+        Some(Step {
+            form: Some(form), ..
+        }) => form.clone(),
         Some(last) => missing_form(&registry.parse(&last.model)?, &last.fit, &data, settings)?,
         None => MissingForm::none(),
     };

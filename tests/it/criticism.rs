@@ -218,6 +218,18 @@ fn ladder_from_bilinear_coulomb_recovers_the_full_model() {
     }
     assert!(last.e2 <= 1.15 * floor);
     assert!(last.candidates.iter().all(|c| !c.supported));
+    // Each step carries the missing form of its own fit (the ladder's
+    // report takes the last one's).
+    let model = registry.parse(&last.model).unwrap();
+    let fresh = missing_form(
+        &model,
+        &last.fit,
+        &data.clone().with_lag(last.lag),
+        &MapSettings::default(),
+    )
+    .unwrap();
+    assert_eq!(last.form.as_ref(), Some(&fresh));
+    assert_ne!(steps[0].form, last.form);
 }
 
 #[test]
