@@ -219,6 +219,22 @@ def test_progress_is_reported_and_the_gil_released(record):
     assert len(ticks) > 10
 
 
+def test_runs_in_a_thread_pool_give_the_sequential_results(record):
+    """Each run works on a worker of the library's thread pool
+    (`hbis::parallel`): runs started together share the workers and give
+    what they give one after another."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    def one(seed):
+        return hbis.fit(record, MODEL, seed=seed, map_only=True).map
+
+    alone = [one(s) for s in range(1, 5)]
+    with ThreadPoolExecutor(4) as ex:
+        together = list(ex.map(one, range(1, 5)))
+    assert together == alone
+    assert alone[0] != alone[1]  # the seeds matter, so the check can fail
+
+
 def test_map_only_fit_has_no_posterior(record):
     f = hbis.fit(record, MODEL, seed=1, map_only=True)
     assert f.posterior is None and f.converged is None
