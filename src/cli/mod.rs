@@ -130,13 +130,14 @@ pub struct Unconverged {
 /// Parse the arguments, run, and turn the outcome into an exit code.
 pub fn main() -> ExitCode {
     // clap prints its own usage errors and exits with code 2.
-    let cli = Cli::parse();
-    crate::parallel::init_pool();
-    crate::parallel::on_pool(|| dispatch(cli))
+    dispatch(Cli::parse())
 }
 
 fn dispatch(cli: Cli) -> ExitCode {
-    let result = match cli.command {
+    // On a worker of the pool (`hbis::parallel`), for `main` and a user's
+    // own binary (`run`) alike.
+    crate::parallel::init_pool();
+    let result = crate::parallel::on_pool(|| match cli.command {
         Command::Simulate(a) => simulate::run(a),
         Command::Convert(a) => convert::run(a),
         Command::Fit(a) => fit::run(a),
@@ -145,7 +146,7 @@ fn dispatch(cli: Cli) -> ExitCode {
         Command::Demo(a) => demo::run(a),
         Command::Batch(a) => batch::run(a),
         Command::Predict(a) => predict::run(a),
-    };
+    });
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) if e.is::<Unconverged>() => {
