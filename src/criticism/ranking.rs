@@ -791,12 +791,13 @@ fn rank_from(
         && !current.interval_mean()
         && cands.iter().any(|c| !c.model.closed_form()))
     .then(|| rng.random());
+    // The current model on the numerical engine (its baseline and gates).
+    let numeric_current = current.clone().numerically();
     let numeric_baseline = || {
         baseline_seed
             .map(|seed| {
-                let numeric = current.clone().numerically();
                 let start = Some(theta_now.to_vec());
-                fit_model(&numeric, data, noise, start, &numeric_budget, seed)
+                fit_model(&numeric_current, data, noise, start, &numeric_budget, seed)
             })
             .transpose()
     };
@@ -878,8 +879,15 @@ fn rank_from(
     let improve_seed: Option<u64> = numeric_baseline.is_some().then(|| rng.random());
     let improve_numeric = || -> Result<(), CriticismError> {
         if let (Some(base), Some(seed)) = (&mut numeric_baseline, improve_seed) {
-            let numeric = current.clone().numerically();
-            improve_baseline(&numeric, base, &refits, data, &numeric_budget, seed, true)?;
+            improve_baseline(
+                &numeric_current,
+                base,
+                &refits,
+                data,
+                &numeric_budget,
+                seed,
+                true,
+            )?;
         }
         Ok(())
     };
@@ -895,7 +903,6 @@ fn rank_from(
     // Kept only where it fits better than the closed-form fit (above).
     let numeric_baseline = numeric_baseline.filter(|b| b.log_likelihood > fit.log_likelihood);
     let features_now = diagnosis_of(current, fit, data)?.features;
-    let numeric_current = current.clone().numerically();
     let features_numeric = match &numeric_baseline {
         Some(b) => Some(diagnosis_of(&numeric_current, b, data)?.features),
         None => None,
@@ -1098,18 +1105,6 @@ pub fn screen_threshold(df: usize, n: usize) -> f64 {
     (SUPPORT + df as f64 * (n as f64).ln()) / SCREEN_MARGIN
 }
 
-/// Set when the terms `held` of the current fit's missing form, those no
-/// catalog component makes (led by a memory or hysteretic term,
-/// [`MissingForm::out_of_catalog`], or by an elastic term where no
-/// candidate changes the spring law, [`MissingForm::elastic_lead`]),
-/// lower BIC by more than the candidate does, and with them in both
-/// models the candidate no longer lowers BIC by more than [`SUPPORT`]:
-/// it stood in for them. On two
-/// Maxwell records of the calibration (seed 552985) `friction-decay`
-/// lowered BIC by 12.5 and 31.5, the form's memory term by 124.2 and
-/// 241.9, and beside it `friction-decay` gained nothing. (Refusing a candidate
-/// whenever the whole form gains more refused `viscous` in the demo's
-/// ladder, whose start lacked two catalog effects.)
 /// Whether `refit` (a candidate's) fits better, by more than [`SUPPORT`]
 /// in BIC, than the missing form's whole refit (of `fit_now`'s model,
 /// [`MissingForm::delta_bic`]) less the penalty of the terms `held`
@@ -1140,6 +1135,18 @@ fn outgains_form(
     refit.bic < fit_now.bic + delta - left_out * (n as f64).ln() - SUPPORT
 }
 
+/// Set when the terms `held` of the current fit's missing form, those no
+/// catalog component makes (led by a memory or hysteretic term,
+/// [`MissingForm::out_of_catalog`], or by an elastic term where no
+/// candidate changes the spring law, [`MissingForm::elastic_lead`]),
+/// lower BIC by more than the candidate does, and with them in both
+/// models the candidate no longer lowers BIC by more than [`SUPPORT`]:
+/// it stood in for them. On two
+/// Maxwell records of the calibration (seed 552985) `friction-decay`
+/// lowered BIC by 12.5 and 31.5, the form's memory term by 124.2 and
+/// 241.9, and beside it `friction-decay` gained nothing. (Refusing a candidate
+/// whenever the whole form gains more refused `viscous` in the demo's
+/// ladder, whose start lacked two catalog effects.)
 #[allow(clippy::too_many_arguments)]
 fn remains(
     current: &Model,
