@@ -1856,8 +1856,10 @@ pub struct NoiseChoice {
     pub rho: f64,
     /// The AR(1) fit's raw `e2` over the white fit's.
     pub raw_e2_ratio: f64,
-    /// The most [`NoiseChoice::raw_e2_ratio`] the noise explains
-    /// ([`raw_e2_limit`] of the white fit).
+    /// The most [`NoiseChoice::raw_e2_ratio`] the noise explains: `1 +
+    /// 3 sqrt(2 / n_eff)` ([`raw_e2_limit`]) with the AR(1) fit's `rho`
+    /// when the sample-to-sample changes show colour
+    /// ([`NoiseChoice::rho_short`] above its limit), else for white noise.
     pub raw_e2_limit: f64,
     /// The noise's lag-one coefficient read from the white fit's residual
     /// at the shortest lags ([`short_lag_rho`]), where a slow misfit does
@@ -1899,18 +1901,27 @@ impl NoiseChoice {
 }
 
 /// Fits `model` with white and with AR(1) noise and picks AR(1) when its
-/// BIC is lower and its raw `e2` no more than [`raw_e2_limit`] times the
-/// white fit's: a misfitted start model's residual is correlated over the
-/// structure's motion, and an AR(1) fit that whitens it away (its raw
-/// error growing) says nothing about the sensor. The models nest (AR(1)
+/// BIC is lower and its raw `e2` no more than [`NoiseChoice::raw_e2_limit`]
+/// times the white fit's: a misfitted start model's residual is correlated
+/// over the structure's motion, and an AR(1) fit that whitens it away (its
+/// raw error growing) says nothing about the sensor.
+///
+/// That limit is white noise's unless the noise's colour shows from one
+/// sample to the next, where a slow misfit hardly reaches: coloured noise
+/// has fewer independent values (`n_eff`), and a white fit takes more of
+/// it into its parameters. On a null record with sensor noise (`rho`
+/// 0.83, `rho_short` far above its limit; commit seed 352442 of CI) the
+/// AR(1) fit's raw `e2` was 1.119 times the white fit's, beyond white
+/// noise's 1.095 but within the 1.312 of its colour, and white noise was
+/// chosen where AR(1) was 1,987 lower in BIC. The models nest (AR(1)
 /// with `rho = 0` is white noise), so each fit starts from the other's MAP
 /// too: a search stuck in a worse basin must not decide the noise model.
 ///
 /// It also reads the noise's colour from one sample to the next
 /// ([`short_lag_rho`] of the white fit's residual, against
 /// [`short_lag_limit`]), which a slow misfit hardly reaches, and its
-/// [`NoiseChoice::sentence`] says when AR(1) won without it. That reading
-/// does not decide: on records with white noise and an effect the start
+/// [`NoiseChoice::sentence`] says when AR(1) won without it. Beyond
+/// setting the raw-`e2` limit, that reading does not decide: on records with white noise and an effect the start
 /// model lacks AR(1) won by 100 to 2,000 in BIC at a raw `e2` within 6 %
 /// of the white fit's (`rho` 0.23-0.81) while the sample-to-sample
 /// changes read -0.04 to 0.08 (1.9 on the calibration's sensor noise; 54
@@ -1952,9 +1963,10 @@ pub fn choose_noise(
         .copied()
         .unwrap_or(0.0);
     let raw_e2_ratio = ar1_fit.map.eval.e2 / e2_white;
-    let raw_e2_limit = e2_limit(0.0, data.a.len());
     let rho_short = short_lag_rho(&white_residual?);
     let rho_short_limit = short_lag_limit(data.a.len());
+    let coloured = rho_short > rho_short_limit;
+    let raw_e2_limit = e2_limit(if coloured { rho } else { 0.0 }, data.a.len());
     Ok(NoiseChoice {
         chosen: if ar1.bic < bic_white && raw_e2_ratio <= raw_e2_limit {
             Noise::Ar1

@@ -301,6 +301,45 @@ fn ar1_that_only_fits_a_slow_misfit_is_said_to() {
         .contains("sample-to-sample changes show no colour"));
 }
 
+/// A null record with sensor noise of CI's run of commit 6f10807 (seed
+/// 352442, record 4) for which `--noise auto` chose white noise: the AR(1)
+/// fit (`rho` 0.83) was 1,987 lower in BIC, but its raw `e2` was 1.119
+/// times the white fit's, beyond the 1.095 white noise explains on 2,001
+/// samples. The noise's colour shows from one sample to the next, so the
+/// limit is that of noise of the fit's `rho` (1.31): AR(1).
+#[test]
+fn the_raw_e2_limit_of_coloured_noise_is_its_colours() {
+    use hbis::criticism::calibration::make_record;
+    use hbis::criticism::ranking::choose_noise;
+    use hbis::inference::{MapSettings, Noise};
+    let seed = 352443057330;
+    let made = make_record(
+        &Registry::builtin(),
+        Kind::NullColoured,
+        Sensor::Instant,
+        seed,
+    )
+    .unwrap();
+    let c = choose_noise(
+        &made.start,
+        &made.data,
+        &MapSettings::default(),
+        seed ^ 0x0A17_0015,
+    )
+    .unwrap();
+    eprintln!(
+        "seed {seed}: {} (raw e2 ratio {:.4}, limit {:.4})",
+        c.sentence(),
+        c.raw_e2_ratio,
+        c.raw_e2_limit
+    );
+    assert!(c.rho_short > c.rho_short_limit, "{}", c.sentence());
+    // Beyond white noise's limit: the colour's is what lets AR(1) in.
+    assert!(c.raw_e2_ratio > 1.0 + 3.0 * (2.0f64 / 2001.0).sqrt());
+    assert!(c.bic_ar1 < c.bic_white - 100.0, "{}", c.sentence());
+    assert_eq!(c.chosen, Noise::Ar1, "{}", c.sentence());
+}
+
 /// Two null records with sensor noise (AR(1) through a filter) of the
 /// out-of-sample run of commit bb57b25 (seed 86683, records 52 and 54)
 /// for which `--noise auto` chose white noise: the AR(1) search, started
