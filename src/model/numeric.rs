@@ -771,7 +771,11 @@ impl NumericSystem<'_> {
                         *gk = y[0] - x;
                     }
                     // The velocity's extrema: a dip to zero inside one
-                    // step changes no sign at the step's ends.
+                    // step changes no sign at the step's ends. (Not
+                    // watched on the run up to such a minimum.)
+                    if g.len() <= extremum {
+                        return;
+                    }
                     let total = |tt: f64, y: &[f64; N]| force(tt, y).accel();
                     let a = total(tt, y) - ag(tt);
                     g[extremum] = d * a;
