@@ -122,6 +122,12 @@ pub struct MissingForm {
     /// (not in the JSON; `None` otherwise).
     #[serde(skip)]
     pub elastic_lead: Option<OutOfCatalog>,
+    /// Its memory and hysteretic terms when they are in it but do not
+    /// lead it (not in the JSON; `None` otherwise): asked of a candidate
+    /// only where they alone gain more than every candidate does
+    /// (`criticism::ranking`, gate 8).
+    #[serde(skip)]
+    pub memory_terms: Option<OutOfCatalog>,
 }
 
 /// The terms of a [`MissingForm`] that no catalog component makes: memory
@@ -163,6 +169,7 @@ impl MissingForm {
             series: None,
             out_of_catalog: None,
             elastic_lead: None,
+            memory_terms: None,
         }
     }
 }
@@ -656,6 +663,10 @@ fn refined(
     Ok(MissingForm {
         effect_file: Some(effect_file_text(cols, &terms)),
         out_of_catalog: held_apart(cols, &terms, &has_state),
+        memory_terms: terms
+            .first()
+            .filter(|t| !has_state(t.kind))
+            .and_then(|_| held_anywhere(cols, &terms, &has_state)),
         elastic_lead: terms
             .first()
             .filter(|t| t.kind == "elastic")
@@ -682,6 +693,19 @@ fn held_apart(
     kinds: &dyn Fn(&str) -> bool,
 ) -> Option<OutOfCatalog> {
     if !terms.first().is_some_and(|t| kinds(t.kind)) {
+        return None;
+    }
+    held_anywhere(cols, terms, kinds)
+}
+
+/// The ones of `terms` (from `cols`) of `kinds`, wherever they are in
+/// the form; `None` if there are none.
+fn held_anywhere(
+    cols: &[&Column],
+    terms: &[Term],
+    kinds: &dyn Fn(&str) -> bool,
+) -> Option<OutOfCatalog> {
+    if !terms.iter().any(|t| kinds(t.kind)) {
         return None;
     }
     let keep: Vec<usize> = (0..terms.len()).filter(|&i| kinds(terms[i].kind)).collect();

@@ -437,6 +437,19 @@ fn a_candidate_the_missing_forms_elastic_term_explains_is_refused() {
     refused_as_stand_in_for(225_710_677_247, "elastic term");
 }
 
+/// A Maxwell record of the run on seed 17530 (record 117: `r_m` 0.30,
+/// `tau_m` 1.00 s), on which `velocity-friction` (BIC -58.3) was added.
+/// The missing form leads with `travel u`, then a memory term of 0.97 s
+/// that alone lowers BIC by 679.0, more than [`MEMORY_LEAD`] times any
+/// candidate's change; beside it `velocity-friction` changes BIC by
+/// +15.0. Asked only of memory-led forms, gate 8 added it.
+///
+/// [`MEMORY_LEAD`]: hbis::criticism::ranking::MEMORY_LEAD
+#[test]
+fn a_candidate_the_missing_forms_second_memory_term_explains_is_refused() {
+    refused_as_stand_in_for(17_530_052_707, "memory term");
+}
+
 /// The start model's fit searches again where its global search's runs
 /// never reached their best value twice: on a Maxwell record of the
 /// generator (707334200) the first search with seed 1 ended some 85 nats
