@@ -273,25 +273,8 @@ fn a_refit_that_turns_the_residual_white_explains_it() {
 /// there made the calibration worse: docs/criticism.md.)
 #[test]
 fn ar1_that_only_fits_a_slow_misfit_is_said_to() {
-    use hbis::criticism::calibration::make_record;
-    use hbis::criticism::choose_noise;
-    use hbis::inference::{MapSettings, Noise};
-    let seed = 910_000_000_015;
-    let made = make_record(
-        &Registry::builtin(),
-        hidden("offset"),
-        Sensor::Instant,
-        seed,
-    )
-    .unwrap();
-    let c = choose_noise(
-        &made.start,
-        &made.data,
-        &MapSettings::default(),
-        seed ^ 0x0A17_0015,
-    )
-    .unwrap();
-    eprintln!("seed {seed}: {}", c.sentence());
+    use hbis::inference::Noise;
+    let c = noise_choice(hidden("offset"), 910_000_000_015);
     assert!(c.bic_ar1 < c.bic_white - 100.0, "{}", c.sentence());
     assert!(c.raw_e2_ratio <= c.raw_e2_limit, "{}", c.sentence());
     assert!(c.rho_short.abs() < c.rho_short_limit, "{}", c.sentence());
@@ -301,25 +284,13 @@ fn ar1_that_only_fits_a_slow_misfit_is_said_to() {
         .contains("sample-to-sample changes show no colour"));
 }
 
-/// A null record with sensor noise of CI's run of commit 6f10807 (seed
-/// 352442, record 4) for which `--noise auto` chose white noise: the AR(1)
-/// fit (`rho` 0.83) was 1,987 lower in BIC, but its raw `e2` was 1.119
-/// times the white fit's, beyond the 1.095 white noise explains on 2,001
-/// samples. The noise's colour shows from one sample to the next, so the
-/// limit is that of noise of the fit's `rho` (1.31): AR(1).
-#[test]
-fn the_raw_e2_limit_of_coloured_noise_is_its_colours() {
+/// `--noise auto`'s choice on the calibration record `kind`, `seed`, as
+/// the calibration makes it; printed.
+fn noise_choice(kind: Kind, seed: u64) -> hbis::criticism::NoiseChoice {
     use hbis::criticism::calibration::make_record;
-    use hbis::criticism::ranking::choose_noise;
-    use hbis::inference::{MapSettings, Noise};
-    let seed = 352443057330;
-    let made = make_record(
-        &Registry::builtin(),
-        Kind::NullColoured,
-        Sensor::Instant,
-        seed,
-    )
-    .unwrap();
+    use hbis::criticism::choose_noise;
+    use hbis::inference::MapSettings;
+    let made = make_record(&Registry::builtin(), kind, Sensor::Instant, seed).unwrap();
     let c = choose_noise(
         &made.start,
         &made.data,
@@ -333,6 +304,19 @@ fn the_raw_e2_limit_of_coloured_noise_is_its_colours() {
         c.raw_e2_ratio,
         c.raw_e2_limit
     );
+    c
+}
+
+/// A null record with sensor noise of CI's run of commit 6f10807 (seed
+/// 352442, record 4) for which `--noise auto` chose white noise: the AR(1)
+/// fit (`rho` 0.83) was 1,987 lower in BIC, but its raw `e2` was 1.119
+/// times the white fit's, beyond the 1.095 white noise explains on 2,001
+/// samples. The noise's colour shows from one sample to the next, so the
+/// limit is that of noise of the fit's `rho` (1.31): AR(1).
+#[test]
+fn the_raw_e2_limit_of_coloured_noise_is_its_colours() {
+    use hbis::inference::Noise;
+    let c = noise_choice(Kind::NullColoured, 352_443_057_330);
     assert!(c.rho_short > c.rho_short_limit, "{}", c.sentence());
     // Beyond white noise's limit: the colour's is what lets AR(1) in.
     assert!(c.raw_e2_ratio > 1.0 + 3.0 * (2.0f64 / 2001.0).sqrt());
@@ -349,20 +333,8 @@ fn the_raw_e2_limit_of_coloured_noise_is_its_colours() {
 /// the residual's lag-1 correlation it reaches that basin and is chosen.
 #[test]
 fn coloured_sensor_noise_is_seen_from_a_start_at_the_residuals_correlation() {
-    use hbis::criticism::calibration::make_record;
-    use hbis::criticism::ranking::choose_noise;
-    use hbis::inference::{MapSettings, Noise};
-    let registry = Registry::builtin();
-    let run = |seed: u64| {
-        let made = make_record(&registry, Kind::NullColoured, Sensor::Instant, seed).unwrap();
-        let (start, data) = (made.start, made.data);
-        let c = choose_noise(&start, &data, &MapSettings::default(), seed ^ 0x0A17_0015).unwrap();
-        eprintln!(
-            "seed {seed}: chosen {:?}, rho {:.3}, raw e2 ratio {:.4} (limit {:.4}), BIC white {:.1}, AR(1) {:.1}",
-            c.chosen, c.rho, c.raw_e2_ratio, c.raw_e2_limit, c.bic_white, c.bic_ar1
-        );
-        c
-    };
+    use hbis::inference::Noise;
+    let run = |seed: u64| noise_choice(Kind::NullColoured, seed);
     let (a, b) = rayon::join(|| run(86683260054), || run(86683260064));
     for c in [a, b] {
         assert_eq!(c.chosen, Noise::Ar1);
