@@ -2105,6 +2105,20 @@ mod tests {
         )
     }
 
+    /// A form of three terms whose refit lowered BIC by 100, and one of
+    /// its terms held apart.
+    fn three_terms_one_held() -> (MissingForm, OutOfCatalog) {
+        let mut form = MissingForm::none();
+        form.delta_bic = Some(-100.0);
+        form.effect_file = Some(form_file(3));
+        let held = OutOfCatalog {
+            effect_file: form_file(1),
+            description: String::new(),
+            values: Vec::new(),
+        };
+        (form, held)
+    }
+
     #[test]
     fn a_candidate_beyond_the_whole_form_and_its_penalty_skips_the_held_refit() {
         let fit = |bic: f64| ModelFit {
@@ -2121,14 +2135,7 @@ mod tests {
             at_budget: false,
             best_repeated: None,
         };
-        let mut form = MissingForm::none();
-        form.delta_bic = Some(-100.0);
-        form.effect_file = Some(form_file(3));
-        let held = OutOfCatalog {
-            effect_file: form_file(1),
-            description: String::new(),
-            values: Vec::new(),
-        };
+        let (mut form, held) = three_terms_one_held();
         let n = 2001;
         // The held term alone may beat all three by two terms' penalty.
         let edge = 1000.0 - 100.0 - 2.0 * (n as f64).ln() - SUPPORT;
@@ -2141,14 +2148,7 @@ mod tests {
 
     #[test]
     fn held_terms_whose_least_gain_meets_the_beat_skip_the_refit() {
-        let mut form = MissingForm::none();
-        form.delta_bic = Some(-100.0);
-        form.effect_file = Some(form_file(3));
-        let held = OutOfCatalog {
-            effect_file: form_file(1),
-            description: String::new(),
-            values: Vec::new(),
-        };
+        let (mut form, held) = three_terms_one_held();
         let n = 2001;
         // Alone, the held term gains at most the whole form's 100 and the
         // two left-out terms' penalty.

@@ -6,7 +6,7 @@
 
 use std::sync::Arc;
 
-use hbis::criticism::{diagnose_model, fit_model, missing_form};
+use hbis::criticism::{diagnose_model, fit_model, missing_form, ModelFit, RankedCandidate};
 use hbis::data::{synthesize, Aligned};
 use hbis::inference::{MapSettings, Noise};
 use hbis::model::effect_file::FileEffect;
@@ -20,16 +20,36 @@ fn record(model: &str, extra: &[(&str, f64)], seed: u64) -> (Aligned, f64) {
     let truth = model
         .theta_from_params(&Params::table_8_1(5).unwrap(), extra)
         .unwrap();
-    let mut rng = StdRng::seed_from_u64(seed);
-    let data = synthesize(&model, &truth, 0.005, 2001, 0.015, &mut rng)
+    made(&model, &truth, &mut StdRng::seed_from_u64(seed))
+}
+
+/// A 10 s, 200 Hz record of `model` at `truth` with 1.5 % noise drawn
+/// from `rng`, and its noise floor.
+fn made(model: &Model, truth: &[f64], rng: &mut StdRng) -> (Aligned, f64) {
+    let data = synthesize(model, truth, 0.005, 2001, 0.015, rng)
         .unwrap()
         .record
         .aligned(None)
         .unwrap();
     let mut a = vec![0.0; data.a.len()];
-    model.accel_into(&truth, data.dt, &mut a).unwrap();
+    model.accel_into(truth, data.dt, &mut a).unwrap();
     let sse: f64 = data.a.iter().zip(&a).map(|(x, m)| (x - m).powi(2)).sum();
     (data.clone(), sse / data.energy())
+}
+
+/// `start` diagnosed on `data` with white noise, seed 1.
+fn diagnosed(start: &Model, data: &Aligned) -> (ModelFit, Vec<RankedCandidate>) {
+    let settings = MapSettings::default();
+    let (fit, _, ranked) = diagnose_model(
+        &Registry::builtin(),
+        start,
+        data,
+        Noise::White,
+        &settings,
+        1,
+    )
+    .unwrap();
+    (fit, ranked)
 }
 
 #[test]
@@ -42,15 +62,7 @@ fn a_viscoelastic_rubber_is_described_as_a_memory_force() {
     );
     let start = Model::parse("trilinear+lcfm+viscous").unwrap();
     let settings = MapSettings::default();
-    let (fit, _, ranked) = diagnose_model(
-        &Registry::builtin(),
-        &start,
-        &data,
-        Noise::White,
-        &settings,
-        1,
-    )
-    .unwrap();
+    let (fit, ranked) = diagnosed(&start, &data);
     println!(
         "record seed 11, seed 1: start e2 {:.5}, floor {floor:.5}",
         fit.e2
@@ -125,33 +137,11 @@ fn the_forms_refit_starts_from_the_denser_of_two_points() {
     let truth = truth_model
         .theta_from_params(&p, &[("r_m", r_m), ("tau_m", tau)])
         .unwrap();
-    let data = synthesize(&truth_model, &truth, 0.005, 2001, 0.015, &mut rng)
-        .unwrap()
-        .record
-        .aligned(None)
-        .unwrap();
-    let mut clean = vec![0.0; data.a.len()];
-    truth_model.accel_into(&truth, data.dt, &mut clean).unwrap();
-    let floor = data
-        .a
-        .iter()
-        .zip(&clean)
-        .map(|(x, m)| (x - m).powi(2))
-        .sum::<f64>()
-        / data.energy();
+    let (data, floor) = made(&truth_model, &truth, &mut rng);
     let start = Model::parse("trilinear+lcfm+viscous").unwrap();
-    let settings = MapSettings::default();
     // The current fit as the example's: the diagnosis's.
-    let (fit, _, _) = diagnose_model(
-        &Registry::builtin(),
-        &start,
-        &data,
-        Noise::White,
-        &settings,
-        1,
-    )
-    .unwrap();
-    let form = missing_form(&start, &fit, &data, &settings).unwrap();
+    let (fit, _) = diagnosed(&start, &data);
+    let form = missing_form(&start, &fit, &data, &MapSettings::default()).unwrap();
     println!(
         "record seed {seed}: r_m {r_m:.3}, tau_m {tau:.3} s; start e2 {:.4} of the floor; terms {:?}; e2 with them {:?} of the floor",
         fit.e2 / floor,
