@@ -74,10 +74,10 @@ fn few_false_discoveries_and_hidden_effects_ranked_first() {
     let found = hidden.iter().filter(|o| o.found()).count();
     assert!(found + 1 >= hidden.len(), "{found} of {}", hidden.len());
     // Out-of-catalog physics: one record of each kind. The full runs of
-    // 2026-11-29 (docs/criticism.md) added a catalog stand-in to at most
-    // 3 of 10 Maxwell records, 2 of 10 Bouc-Wen springs (seed 497964)
-    // and 0 of 10 friction heatings: at 30 %, 20 % and 10 %, all three
-    // here get one in 0.6 % of runs. A gate that accepts every best
+    // 2026-11-29 and 30 (docs/criticism.md) added a catalog stand-in to
+    // at most 3 of 10 Maxwell records, 3 of 10 Bouc-Wen springs (seed
+    // 932156) and 0 of 10 friction heatings: at 30 %, 30 % and 10 %, all
+    // three here get one in 0.9 % of runs. A gate that accepts every best
     // candidate fails it (three of three).
     let outside: Vec<_> = outcomes.iter().filter(|o| o.outside.is_some()).collect();
     let stand_ins = outside.iter().filter(|o| o.false_discovery()).count();
