@@ -203,6 +203,13 @@ pub struct RankedCandidate {
     /// The extended model.
     #[serde(skip)]
     pub extended: Model,
+    /// The parameter of the current model its refit puts on a prior bound,
+    /// when that alone keeps it out (the missing form's stand-in check,
+    /// asked only of a candidate that would be added, not asked): the
+    /// ladder may swap it for the effect that parameter belongs to
+    /// ([`super::search`], "unpin").
+    #[serde(skip)]
+    pub pinned_only: Option<String>,
 }
 
 /// CMA-ES budget of a refit on the numerical engine.
@@ -955,10 +962,11 @@ fn rank_from(
         };
         let (target_before, target_after) = shrink_of(&targets, before, &after);
         let stands_in = absorbed(&targets, before, &after);
+        let pin = pinned(current, fit.model_theta(current), &c.model, &refit.theta);
         let mut gate = Gate {
             physical_size,
             stands_in,
-            pins: pinned(current, fit.model_theta(current), &c.model, &refit.theta),
+            pins: pin.as_ref().map(|p| p.1.clone()),
             worsens: worsened(&targets, before, &after),
             remains: None,
             raw_e2_ratio: refit.e2 / fit.e2,
@@ -1006,7 +1014,19 @@ fn rank_from(
                 )?;
             }
         }
+        // Every gate but the pin passes (gate 8, asked only of a candidate
+        // that would be added, is not asked).
+        let pinned_only = pin
+            .filter(|_| {
+                Gate {
+                    pins: None,
+                    ..gate.clone()
+                }
+                .accepted()
+            })
+            .map(|p| p.0);
         out.push(RankedCandidate {
+            pinned_only,
             targets: c.targets.clone(),
             evidence_supports: gate.evidence(),
             moved_z,
@@ -1359,8 +1379,9 @@ pub const PINNED: f64 = 1e-3;
 /// on a prior bound (within [`PINNED`] of its range) where the current fit
 /// did not: the candidate's gain is bought by forcing another part of the
 /// model to its limit (on a record with a viscoelastic rubber, a catalog
-/// stand-in left `rF0` on its bound).
-fn pinned(current: &Model, now: &[f64], model: &Model, refit: &[f64]) -> Option<String> {
+/// stand-in left `rF0` on its bound). The parameter's name, and the
+/// sentence.
+fn pinned(current: &Model, now: &[f64], model: &Model, refit: &[f64]) -> Option<(String, String)> {
     let layout = current.layout();
     let bounds = model.bounds();
     model
@@ -1372,10 +1393,11 @@ fn pinned(current: &Model, now: &[f64], model: &Model, refit: &[f64]) -> Option<
             let (lo, hi) = bounds[i];
             let at = |x: f64| (x - lo).abs() <= PINNED * (hi - lo) || (hi - x).abs() <= PINNED * (hi - lo);
             (at(refit[i]) && !at(before)).then(|| {
-                format!(
+                let why = format!(
                     "its refit puts `{name}` on its prior bound ({:.4} in [{lo}, {hi}]) where the current fit has {before:.4}: it needs another part of the model forced to a limit",
                     refit[i]
-                )
+                );
+                (name.clone(), why)
             })
         })
 }
@@ -2176,7 +2198,8 @@ mod tests {
             .position(|n| n == "rF0")
             .unwrap();
         refit[k] = 0.1;
-        let why = pinned(&current, &now, &extended, &refit).unwrap();
+        let (name, why) = pinned(&current, &now, &extended, &refit).unwrap();
+        assert_eq!(name, "rF0");
         assert!(why.contains("`rF0`"), "{why}");
         // Already there before: not the candidate's doing.
         let mut before = now.clone();

@@ -21,6 +21,19 @@
 //! After an addition the lowest-BIC removal or swap is taken, and they are
 //! tried again until none lowers BIC. The start model's own components are
 //! the user's and are never removed.
+//! - when no candidate is accepted, **unpin**: swap an effect the ladder
+//!   added for a candidate whose refit puts one of that effect's
+//!   parameters on a prior bound and which every other gate accepts
+//!   ([`RankedCandidate::pinned_only`]), when that lowers BIC. The pin
+//!   says the earlier effect stood in for the candidate. On the record of
+//!   `tests/it/criticism.rs`'s
+//!   `ladder_from_bilinear_coulomb_recovers_the_full_model`
+//!   (Table 8.1's row 8, engine tolerance 1e-7) the first step added
+//!   `velocity-friction` (BIC -48.1; `trilinear`, -1033.6, was refused:
+//!   the jump-direction structure it unmasked), and at the next
+//!   `trilinear` (-1853.6) put its `v_t` on the bound 0.3: without this
+//!   move the ladder ended at `bilinear+coulomb+velocity-friction`, with
+//!   it at `trilinear+lcfm+viscous`.
 //!
 //! # Paths
 //! When the first step accepts more than one candidate, the runner-up
@@ -401,8 +414,98 @@ impl Searcher<'_> {
             on_step(&step);
             steps.push(step);
             next = node.candidates.iter().find(|c| c.accepted).cloned();
+            if next.is_none() {
+                if let Some((m, c)) = self.unpin(&mut s, &node)? {
+                    let mut moves = vec![m];
+                    self.prune(&mut s, &mut moves)?;
+                    node = self.node(&mut s)?;
+                    let step = step_of(&s, &node, Some(c), moves, index);
+                    on_step(&step);
+                    steps.push(step);
+                    next = node.candidates.iter().find(|c| c.accepted).cloned();
+                }
+            }
         }
         Ok(steps)
+    }
+
+    /// The best swap of an effect the ladder added for a candidate whose
+    /// refit puts that effect's parameter on a prior bound and which every
+    /// other gate accepts ([`RankedCandidate::pinned_only`]), when it
+    /// lowers BIC; `s` moves there. The pin says the earlier effect stood
+    /// in for this one: beside it the candidate forces it to a limit.
+    fn unpin(
+        &mut self,
+        s: &mut State,
+        node: &Node,
+    ) -> Result<Option<(Move, String)>, CriticismError> {
+        let mut best: Option<(State, Move)> = None;
+        for c in &node.candidates {
+            let Some(param) = &c.pinned_only else {
+                continue;
+            };
+            let Some(i) = s
+                .added
+                .iter()
+                .position(|a| owns(self.registry, &a.effect, param))
+            else {
+                continue;
+            };
+            let effect = s.added[i].effect.clone();
+            let Some(reduced) = without(self.registry, &s.model, &effect) else {
+                continue;
+            };
+            let theta = carried(&reduced, &s.fit, &s.model, &[]);
+            let Some(swap) = self
+                .registry
+                .candidates(&reduced, &theta)
+                .into_iter()
+                .find(|k| k.effect == c.effect)
+            else {
+                continue;
+            };
+            let start = carried(&swap.model, &s.fit, &s.model, &[(&c.fit, &c.extended)]);
+            let fit = self.fit(&swap.model, &s.data, start)?;
+            if fit.bic >= best.as_ref().map_or(s.fit.bic, |b| b.1.bic_after) {
+                continue;
+            }
+            let mut added = s.added.clone();
+            added[i] = Added {
+                effect: c.effect.clone(),
+                accepted: Vec::new(),
+            };
+            let m = Move {
+                kind: "swap",
+                effect: c.effect.clone(),
+                replaces: Some(effect),
+                model: swap.model.name(),
+                bic_before: s.fit.bic,
+                bic_after: fit.bic,
+            };
+            let next = State {
+                model: swap.model,
+                fit,
+                data: s.data.clone(),
+                added,
+            };
+            best = Some((next, m));
+        }
+        let Some((mut next, m)) = best else {
+            return Ok(None);
+        };
+        self.settle(&mut next)?;
+        *s = next;
+        let effect = m.effect.clone();
+        Ok(Some((m, effect)))
+    }
+}
+
+/// Whether `param` is one of `effect`'s own parameters.
+fn owns(registry: &Registry, effect: &str, param: &str) -> bool {
+    match registry.get(effect) {
+        Some(Component::Force(f)) => f.params().iter().any(|p| p.name == param),
+        Some(Component::Output(o)) => o.params().iter().any(|p| p.name == param),
+        None => false,
     }
 }
 
@@ -588,4 +691,87 @@ pub fn ladder_observed(
         steps: paths.swap_remove(chosen),
         paths: ends,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::data::synthesize;
+    use crate::model::{ModelSpec, Params};
+
+    /// The record of `tests/it/criticism.rs`'s
+    /// `ladder_from_bilinear_coulomb_recovers_the_full_model`: Table 8.1's
+    /// row 8, 1.5 % noise, seed 4.
+    fn row_8() -> Aligned {
+        let model = Model::from(ModelSpec::FULL);
+        let truth = Params::table_8_1(8).unwrap().to_theta(&ModelSpec::FULL);
+        let mut rng = StdRng::seed_from_u64(4);
+        synthesize(&model, &truth, 0.005, 2001, 0.015, &mut rng)
+            .unwrap()
+            .record
+            .aligned(None)
+            .unwrap()
+    }
+
+    /// With a looser engine (rtol 1e-7) the ladder on this record added
+    /// `velocity-friction` first, and `trilinear`'s refit then put `v_t`
+    /// on its bound: that pin is set by hand here on the ranking the
+    /// engine gives, to test the move alone. The ladder takes the swap;
+    /// a pin on a parameter of the start model's own (not added by the
+    /// ladder) moves nothing.
+    #[test]
+    fn an_effect_whose_parameter_a_candidate_pins_is_swapped_for_it() {
+        let registry = ["lcfm", "viscous", "offset"]
+            .iter()
+            .fold(Registry::builtin(), |r, c| r.withholding(c));
+        let settings = MapSettings::default();
+        let data = row_8();
+        let model = registry
+            .parse("bilinear+coulomb+velocity-friction")
+            .unwrap();
+        let fit = fit_model(&model, &data, Noise::White, None, &settings, 1).unwrap();
+        let mut searcher = Searcher {
+            registry: &registry,
+            noise: Noise::White,
+            settings: &settings,
+            rng: StdRng::seed_from_u64(1),
+            nodes: HashMap::new(),
+            fits: HashMap::new(),
+        };
+        let mut s = State {
+            model,
+            fit,
+            data,
+            added: vec![Added {
+                effect: "velocity-friction".into(),
+                accepted: Vec::new(),
+            }],
+        };
+        let mut node = searcher.node(&mut s).unwrap();
+        let pin = |node: &mut Node, param: &str| {
+            let c = node
+                .candidates
+                .iter_mut()
+                .find(|c| c.effect == "trilinear")
+                .unwrap();
+            c.accepted = false;
+            c.pinned_only = Some(param.into());
+        };
+        pin(&mut node, "uy");
+        let mut held = s.clone();
+        assert!(searcher.unpin(&mut held, &node).unwrap().is_none());
+        assert_eq!(held.model.name(), "bilinear+coulomb+velocity-friction");
+        pin(&mut node, "v_t");
+        let bic = s.fit.bic;
+        let (m, added) = searcher.unpin(&mut s, &node).unwrap().unwrap();
+        eprintln!("{m:?}");
+        assert_eq!(added, "trilinear");
+        assert_eq!(
+            (m.kind, m.replaces.as_deref()),
+            ("swap", Some("velocity-friction"))
+        );
+        assert_eq!(s.model.name(), "trilinear+coulomb");
+        assert_eq!(s.added[0].effect, "trilinear");
+        assert!(s.fit.bic < bic - 100.0, "{} against {bic}", s.fit.bic);
+    }
 }
