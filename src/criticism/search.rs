@@ -33,7 +33,9 @@
 //!   the jump-direction structure it unmasked), and at the next
 //!   `trilinear` (-1853.6) put its `v_t` on the bound 0.3: without this
 //!   move the ladder ended at `bilinear+coulomb+velocity-friction`, with
-//!   it at `trilinear+lcfm+viscous`.
+//!   it at `trilinear+lcfm+viscous`. On the default engine the same
+//!   happens on row 7 with seed 20261210 (`tests/it/search.rs`): 1,851
+//!   in BIC above the true structure without the move, its BIC with it.
 //!
 //! # Paths
 //! When the first step accepts more than one candidate, the runner-up
