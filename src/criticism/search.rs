@@ -343,18 +343,9 @@ impl Searcher<'_> {
             if rival.effect == effect || s.model.has(&rival.effect) {
                 continue;
             }
-            let Some(c) = self
-                .registry
-                .candidates(&reduced, &theta)
-                .into_iter()
-                .find(|c| c.effect == rival.effect)
-            else {
+            let Some((model, swapped)) = self.put_in(s, &reduced, &theta, rival)? else {
                 continue;
             };
-            // The rival's own parameters as its refit had them, the rest
-            // from the current fit.
-            let start = carried(&c.model, &s.fit, &s.model, &[(&rival.fit, &rival.extended)]);
-            let swapped = self.fit(&c.model, &s.data, start)?;
             let mut added = added.clone();
             added.insert(
                 i,
@@ -365,7 +356,7 @@ impl Searcher<'_> {
             );
             out.push((
                 State {
-                    model: c.model.clone(),
+                    model: model.clone(),
                     fit: swapped.clone(),
                     data: s.data.clone(),
                     added,
@@ -374,7 +365,7 @@ impl Searcher<'_> {
                     kind: "swap",
                     effect: rival.effect.clone(),
                     replaces: Some(effect.clone()),
-                    model: c.model.name(),
+                    model: model.name(),
                     bic_before: s.fit.bic,
                     bic_after: swapped.bic,
                 },
@@ -431,6 +422,29 @@ impl Searcher<'_> {
         Ok(steps)
     }
 
+    /// `reduced` (at `theta`) with `rival`'s effect put in, refitted from
+    /// the rival's own parameters as its refit had them and the rest from
+    /// `s`'s fit; `None` when the registry offers no such candidate there.
+    fn put_in(
+        &mut self,
+        s: &State,
+        reduced: &Model,
+        theta: &[f64],
+        rival: &RankedCandidate,
+    ) -> Result<Option<(Model, ModelFit)>, CriticismError> {
+        let Some(c) = self
+            .registry
+            .candidates(reduced, theta)
+            .into_iter()
+            .find(|c| c.effect == rival.effect)
+        else {
+            return Ok(None);
+        };
+        let start = carried(&c.model, &s.fit, &s.model, &[(&rival.fit, &rival.extended)]);
+        let fit = self.fit(&c.model, &s.data, start)?;
+        Ok(Some((c.model, fit)))
+    }
+
     /// The best swap of an effect the ladder added for a candidate whose
     /// refit puts that effect's parameter on a prior bound and which every
     /// other gate accepts ([`RankedCandidate::pinned_only`]), when it
@@ -458,16 +472,9 @@ impl Searcher<'_> {
                 continue;
             };
             let theta = carried(&reduced, &s.fit, &s.model, &[]);
-            let Some(swap) = self
-                .registry
-                .candidates(&reduced, &theta)
-                .into_iter()
-                .find(|k| k.effect == c.effect)
-            else {
+            let Some((model, fit)) = self.put_in(s, &reduced, &theta, c)? else {
                 continue;
             };
-            let start = carried(&swap.model, &s.fit, &s.model, &[(&c.fit, &c.extended)]);
-            let fit = self.fit(&swap.model, &s.data, start)?;
             if fit.bic >= best.as_ref().map_or(s.fit.bic, |b| b.1.bic_after) {
                 continue;
             }
@@ -480,12 +487,12 @@ impl Searcher<'_> {
                 kind: "swap",
                 effect: c.effect.clone(),
                 replaces: Some(effect),
-                model: swap.model.name(),
+                model: model.name(),
                 bic_before: s.fit.bic,
                 bic_after: fit.bic,
             };
             let next = State {
-                model: swap.model,
+                model,
                 fit,
                 data: s.data.clone(),
                 added,
