@@ -279,8 +279,12 @@ fn move_line(m: &Move) -> String {
             m.effect
         ),
     };
+    let why = m
+        .why
+        .as_deref()
+        .map_or(String::new(), |w| format!(" ({w})"));
     format!(
-        "{what} (BIC {:.1} to {:.1}): {}",
+        "{what} (BIC {:.1} to {:.1}): {}{why}",
         m.bic_before, m.bic_after, m.model
     )
 }

@@ -128,6 +128,9 @@ pub struct Move {
     pub bic_before: f64,
     /// BIC after it (lower).
     pub bic_after: f64,
+    /// Why an unpin swap was made: the pin that kept the effect out
+    /// (`None` for the other moves).
+    pub why: Option<String>,
 }
 
 /// Where a search path ended.
@@ -286,6 +289,7 @@ impl Searcher<'_> {
             model: s.model.name(),
             bic_before,
             bic_after: s.fit.bic,
+            why: None,
         })
     }
 
@@ -336,6 +340,7 @@ impl Searcher<'_> {
                 model: reduced.name(),
                 bic_before: s.fit.bic,
                 bic_after: fit.bic,
+                why: None,
             },
         )];
         let theta = fit.model_theta(&reduced).to_vec();
@@ -368,6 +373,7 @@ impl Searcher<'_> {
                     model: model.name(),
                     bic_before: s.fit.bic,
                     bic_after: swapped.bic,
+                    why: None,
                 },
             ));
         }
@@ -486,10 +492,14 @@ impl Searcher<'_> {
             let m = Move {
                 kind: "swap",
                 effect: c.effect.clone(),
-                replaces: Some(effect),
+                replaces: Some(effect.clone()),
                 model: model.name(),
                 bic_before: s.fit.bic,
                 bic_after: fit.bic,
+                why: Some(format!(
+                    "`{}` was kept out only because its refit put `{param}` of `{effect}` on its prior bound",
+                    c.effect
+                )),
             };
             let next = State {
                 model,
@@ -781,6 +791,10 @@ mod tests {
         );
         assert_eq!(s.model.name(), "trilinear+coulomb");
         assert_eq!(s.added[0].effect, "trilinear");
+        assert!(m
+            .why
+            .as_deref()
+            .is_some_and(|w| w.contains("`v_t` of `velocity-friction`")));
         assert!(s.fit.bic < bic - 100.0, "{} against {bic}", s.fit.bic);
     }
 }
