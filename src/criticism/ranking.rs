@@ -204,10 +204,9 @@ pub struct RankedCandidate {
     #[serde(skip)]
     pub extended: Model,
     /// The parameter of the current model its refit puts on a prior bound,
-    /// when that alone keeps it out (the missing form's stand-in check,
-    /// asked only of a candidate that would be added, not asked): the
-    /// ladder may swap it for the effect that parameter belongs to
-    /// ([`super::search`], "unpin").
+    /// when that alone keeps it out (every other gate passes, the missing
+    /// form's stand-in check included): the ladder may swap it for the
+    /// effect that parameter belongs to ([`super::search`], "unpin").
     #[serde(skip)]
     pub pinned_only: Option<String>,
 }
@@ -979,9 +978,18 @@ fn rank_from(
             target_after,
             whitens: whitened(before, &after),
         };
-        // Asked only of a candidate that would be added: it costs the
-        // missing form and two refits on the engine.
-        if gate.accepted() {
+        // Asked only of a candidate that would be added, or would be but
+        // for a pin, which the ladder's unpin move may undo (it must not
+        // swap in a stand-in): it costs the missing form and two refits
+        // on the engine.
+        let but_for_pin = |g: &Gate| {
+            Gate {
+                pins: None,
+                ..g.clone()
+            }
+            .accepted()
+        };
+        if but_for_pin(&gate) {
             if form.is_none() {
                 form = Some(missing_form(current, fit_now, data, settings)?);
             }
@@ -1014,17 +1022,8 @@ fn rank_from(
                 )?;
             }
         }
-        // Every gate but the pin passes (gate 8, asked only of a candidate
-        // that would be added, is not asked).
-        let pinned_only = pin
-            .filter(|_| {
-                Gate {
-                    pins: None,
-                    ..gate.clone()
-                }
-                .accepted()
-            })
-            .map(|p| p.0);
+        // Every gate but the pin passes, the stand-in check included.
+        let pinned_only = pin.filter(|_| but_for_pin(&gate)).map(|p| p.0);
         out.push(RankedCandidate {
             pinned_only,
             targets: c.targets.clone(),
