@@ -406,26 +406,38 @@ impl Searcher<'_> {
                 .filter(|c| c.accepted)
                 .cloned()
                 .collect();
-            let mut moves = vec![self.add(&mut s, &c, &accepted)?];
-            self.prune(&mut s, &mut moves)?;
-            node = self.node(&mut s)?;
-            let step = step_of(&s, &node, Some(c.effect.clone()), moves, index);
-            on_step(&step);
-            steps.push(step);
+            let first = self.add(&mut s, &c, &accepted)?;
+            node = self.step(&mut s, first, index, on_step, &mut steps)?;
             next = node.candidates.iter().find(|c| c.accepted).cloned();
             if next.is_none() {
-                if let Some((m, c)) = self.unpin(&mut s, &node)? {
-                    let mut moves = vec![m];
-                    self.prune(&mut s, &mut moves)?;
-                    node = self.node(&mut s)?;
-                    let step = step_of(&s, &node, Some(c), moves, index);
-                    on_step(&step);
-                    steps.push(step);
+                if let Some(m) = self.unpin(&mut s, &node)? {
+                    node = self.step(&mut s, m, index, on_step, &mut steps)?;
                     next = node.candidates.iter().find(|c| c.accepted).cloned();
                 }
             }
         }
         Ok(steps)
+    }
+
+    /// A step that began with the move `first` (an addition or an unpin
+    /// swap): the removals and swaps it makes worth while, then the new
+    /// model's ranking, the step reported and recorded.
+    fn step(
+        &mut self,
+        s: &mut State,
+        first: Move,
+        index: usize,
+        on_step: &mut dyn FnMut(&Step),
+        steps: &mut Vec<Step>,
+    ) -> Result<Node, CriticismError> {
+        let added = first.effect.clone();
+        let mut moves = vec![first];
+        self.prune(s, &mut moves)?;
+        let node = self.node(s)?;
+        let step = step_of(s, &node, Some(added), moves, index);
+        on_step(&step);
+        steps.push(step);
+        Ok(node)
     }
 
     /// `reduced` (at `theta`) with `rival`'s effect put in, refitted from
@@ -456,11 +468,7 @@ impl Searcher<'_> {
     /// other gate accepts ([`RankedCandidate::pinned_only`]), when it
     /// lowers BIC; `s` moves there. The pin says the earlier effect stood
     /// in for this one: beside it the candidate forces it to a limit.
-    fn unpin(
-        &mut self,
-        s: &mut State,
-        node: &Node,
-    ) -> Result<Option<(Move, String)>, CriticismError> {
+    fn unpin(&mut self, s: &mut State, node: &Node) -> Result<Option<Move>, CriticismError> {
         let mut best: Option<(State, Move)> = None;
         for c in &node.candidates {
             let Some(param) = &c.pinned_only else {
@@ -514,8 +522,7 @@ impl Searcher<'_> {
         };
         self.settle(&mut next)?;
         *s = next;
-        let effect = m.effect.clone();
-        Ok(Some((m, effect)))
+        Ok(Some(m))
     }
 }
 
@@ -782,9 +789,9 @@ mod tests {
         assert_eq!(held.model.name(), "bilinear+coulomb+velocity-friction");
         pin(&mut node, "v_t");
         let bic = s.fit.bic;
-        let (m, added) = searcher.unpin(&mut s, &node).unwrap().unwrap();
+        let m = searcher.unpin(&mut s, &node).unwrap().unwrap();
         eprintln!("{m:?}");
-        assert_eq!(added, "trilinear");
+        assert_eq!(m.effect, "trilinear");
         assert_eq!(
             (m.kind, m.replaces.as_deref()),
             ("swap", Some("velocity-friction"))
