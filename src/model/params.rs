@@ -110,11 +110,17 @@ impl ParamName {
     }
 
     /// A physically meaningful change, in the parameter's unit: a
-    /// millimetre of displacement, a hundredth of a ratio, 0.01 Hz.
+    /// millimetre of displacement, a hundredth of a damping ratio, 0.01
+    /// Hz, and 0.005 of the friction slope `rF0`: over a release of
+    /// 0.1 m that changes the friction force by 0.5 mm of `k0`, a quarter
+    /// of the paper's `uF0` (the paper's own Test 6 slope, -0.0071, is a
+    /// detectable effect; docs/criticism.md, "Row 6 and the scale of
+    /// `rF0`").
     pub fn scale(self) -> f64 {
         match self {
             ParamName::U0 | ParamName::Uy | ParamName::UF0 | ParamName::U3 => 1e-3,
-            ParamName::RF0 | ParamName::Zeta0 => 0.01,
+            ParamName::RF0 => 0.005,
+            ParamName::Zeta0 => 0.01,
             ParamName::F0 | ParamName::F1 | ParamName::F2 => 0.01,
         }
     }
