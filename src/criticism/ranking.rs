@@ -56,7 +56,7 @@ use thiserror::Error;
 use super::features::{Feature, FeatureKind};
 use super::missing_form::{missing_form, MissingForm, OutOfCatalog};
 use super::off_jumps;
-use super::residuals::{diagnose, short_lag_rho, Diagnostics};
+use super::residuals::{diagnose, short_lag_rho, Diagnostics, LJUNG_BOX_LAGS};
 use super::sanity::bound_reached;
 use super::search::carried;
 use crate::data::Aligned;
@@ -1409,7 +1409,7 @@ fn worsened(targets: &[FeatureKind], before: &[Feature], after: &[Feature]) -> O
         .filter(|f| f.significant && !targets.contains(&f.kind))
         .find_map(|f| {
             let b = before.iter().find(|g| g.kind == f.kind)?;
-            (!b.significant).then(|| {
+            gained(b, f).then(|| {
                 format!(
                     "the residual gains a {} it does not target ({:.3} to {:.3}): the fit is worse elsewhere",
                     kind_name(f.kind),
@@ -1418,6 +1418,25 @@ fn worsened(targets: &[FeatureKind], before: &[Feature], after: &[Feature]) -> O
                 )
             })
         })
+}
+
+/// Whether a structure turned significant by the candidate's refit was
+/// gained: not significant before, and for the colour a Ljung-Box `Q`
+/// higher by more than its standard deviation under white noise,
+/// `sqrt(2 h)` (`Q` is chi-squared on `h` lags then). `Q` moves with any
+/// change of the fit, and a threshold crossed by less is no misfit the
+/// refit made: on a record of Table 8.1's row 6 (seed 20261407) `lcfm`
+/// (BIC -44) moved it from 37.500 to 37.635, across p = 0.01, and was
+/// refused for it.
+///
+/// # Formula
+/// ```text
+/// Q_after - Q_before > sqrt(2 h),   h = 20:  6.32
+/// ```
+fn gained(before: &Feature, after: &Feature) -> bool {
+    let rise = after.magnitude - before.magnitude;
+    !before.significant
+        && (after.kind != FeatureKind::Colour || rise > (2.0 * LJUNG_BOX_LAGS as f64).sqrt())
 }
 
 /// The Ljung-Box `Q` before and after when the residual is coloured before
@@ -2232,6 +2251,25 @@ mod tests {
             ),
             None
         );
+    }
+
+    #[test]
+    fn a_colour_that_crosses_its_threshold_by_a_hair_is_not_gained() {
+        use crate::criticism::features::Feature;
+        let colour = |q: f64, significant| Feature {
+            kind: FeatureKind::Colour,
+            magnitude: q,
+            z: f64::NAN,
+            significant,
+            sentence: String::new(),
+        };
+        // Row 6's `lcfm` refit (seed 20261407): across p = 0.01 by 0.135.
+        let (before, after) = ([colour(37.500, false)], [colour(37.635, true)]);
+        assert_eq!(worsened(&[FeatureKind::JumpSize], &before, &after), None);
+        // By more than Q's sd under white noise (6.32): gained.
+        let after = [colour(44.0, true)];
+        let why = worsened(&[FeatureKind::JumpSize], &before, &after).unwrap();
+        assert!(why.contains("colour") && why.contains("37.500 to 44.000"), "{why}");
     }
     use super::*;
     use crate::data::synthesize;

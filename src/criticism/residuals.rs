@@ -546,6 +546,10 @@ pub fn whiten(e: &[f64], rho: Option<f64>) -> Vec<f64> {
     }
 }
 
+/// Lags of the Ljung-Box test ([`ljung_box`]; fewer on records shorter
+/// than 80 samples).
+pub const LJUNG_BOX_LAGS: usize = 20;
+
 /// Ljung-Box statistic `Q` of `w` over `min(20, n / 4)` lags and its
 /// p-value (chi-square with as many degrees of freedom).
 ///
@@ -558,7 +562,7 @@ pub fn whiten(e: &[f64], rho: Option<f64>) -> Vec<f64> {
 /// ```
 pub fn ljung_box(w: &[f64]) -> (f64, f64) {
     let n = w.len();
-    let h = 20usize.min(n / 4);
+    let h = LJUNG_BOX_LAGS.min(n / 4);
     let q = n as f64
         * (n as f64 + 2.0)
         * (1..=h)
