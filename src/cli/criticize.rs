@@ -195,10 +195,16 @@ pub fn ladder_steps(registry: &Registry, s: &Setup, max_steps: usize) -> Result<
     let mut report = |s: &Step| {
         let next = match s.candidates.iter().find(|c| c.accepted) {
             Some(c) => format!("adding {}", c.effect),
-            None => "no effect added".to_string(),
+            None => "no candidate accepted".to_string(),
         };
         let mut err = std::io::stderr();
-        for m in s.moves.iter().filter(|m| m.kind != "add") {
+        // An addition is the step's own line, unless a move of the search
+        // (unmask) made it: then it says why.
+        for m in s
+            .moves
+            .iter()
+            .filter(|m| m.kind != "add" || m.why.is_some())
+        {
             let _ = writeln!(err, "  {}", move_line(m));
         }
         let path = if s.path > 0 {

@@ -209,6 +209,13 @@ pub struct RankedCandidate {
     /// effect that parameter belongs to ([`super::search`], "unpin").
     #[serde(skip)]
     pub pinned_only: Option<String>,
+    /// The residual structure its refit makes significant where it was
+    /// not, when that alone keeps it out (every other gate passes, the
+    /// missing form's stand-in check included): the ladder may add it
+    /// with a candidate that removes that structure again
+    /// ([`super::search`], "unmask").
+    #[serde(skip)]
+    pub worsens_only: Option<FeatureKind>,
 }
 
 /// CMA-ES budget of a refit on the numerical engine.
@@ -962,11 +969,12 @@ fn rank_from(
         let (target_before, target_after) = shrink_of(&targets, before, &after);
         let stands_in = absorbed(&targets, before, &after);
         let pin = pinned(current, fit.model_theta(current), &c.model, &refit.theta);
+        let worse = worsened(&targets, before, &after);
         let mut gate = Gate {
             physical_size,
             stands_in,
             pins: pin.as_ref().map(|p| p.1.clone()),
-            worsens: worsened(&targets, before, &after),
+            worsens: worse.as_ref().map(|w| w.1.clone()),
             remains: None,
             raw_e2_ratio: refit.e2 / fit.e2,
             raw_e2_limit: raw_e2_limit(fit, data.a.len()),
@@ -979,17 +987,19 @@ fn rank_from(
             whitens: whitened(before, &after),
         };
         // Asked only of a candidate that would be added, or would be but
-        // for a pin, which the ladder's unpin move may undo (it must not
-        // swap in a stand-in): it costs the missing form and two refits
-        // on the engine.
-        let but_for_pin = |g: &Gate| {
+        // for a pin or a structure it unmasks, which the ladder's unpin
+        // and unmask moves may undo (they must not put in a stand-in): it
+        // costs the missing form and two refits on the engine.
+        let but_for = |g: &Gate, pins: bool, worsens: bool| {
             Gate {
-                pins: None,
+                pins: g.pins.clone().filter(|_| !pins),
+                worsens: g.worsens.clone().filter(|_| !worsens),
                 ..g.clone()
             }
             .accepted()
         };
-        if but_for_pin(&gate) {
+        let but_for_pin = |g: &Gate| but_for(g, true, false);
+        if but_for(&gate, true, true) {
             if form.is_none() {
                 form = Some(missing_form(current, fit_now, data, settings)?);
             }
@@ -1024,8 +1034,10 @@ fn rank_from(
         }
         // Every gate but the pin passes, the stand-in check included.
         let pinned_only = pin.filter(|_| but_for_pin(&gate)).map(|p| p.0);
+        let worsens_only = worse.filter(|_| but_for(&gate, false, true)).map(|w| w.0);
         out.push(RankedCandidate {
             pinned_only,
+            worsens_only,
             targets: c.targets.clone(),
             evidence_supports: gate.evidence(),
             moved_z,
@@ -1403,19 +1415,24 @@ fn pinned(current: &Model, now: &[f64], model: &Model, refit: &[f64]) -> Option<
 
 /// A residual structure the candidate does not target, not significant
 /// before and significant after its refit: the fit got worse elsewhere.
-fn worsened(targets: &[FeatureKind], before: &[Feature], after: &[Feature]) -> Option<String> {
+fn worsened(
+    targets: &[FeatureKind],
+    before: &[Feature],
+    after: &[Feature],
+) -> Option<(FeatureKind, String)> {
     after
         .iter()
         .filter(|f| f.significant && !targets.contains(&f.kind))
         .find_map(|f| {
             let b = before.iter().find(|g| g.kind == f.kind)?;
             gained(b, f).then(|| {
-                format!(
+                let why = format!(
                     "the residual gains a {} it does not target ({:.3} to {:.3}): the fit is worse elsewhere",
                     kind_name(f.kind),
                     b.magnitude,
                     f.magnitude
-                )
+                );
+                (f.kind, why)
             })
         })
 }
@@ -1460,7 +1477,7 @@ fn whitened(before: &[Feature], after: &[Feature]) -> Option<(f64, f64)> {
 }
 
 /// The kebab-case name of a feature kind (as in the JSON).
-fn kind_name(k: FeatureKind) -> String {
+pub(super) fn kind_name(k: FeatureKind) -> String {
     serde_json::to_value(k)
         .ok()
         .and_then(|v| v.as_str().map(String::from))
@@ -2241,7 +2258,9 @@ mod tests {
         ];
         let after = [f(FeatureKind::Offset, true), f(FeatureKind::JumpSize, true)];
         // It targets the jumps: the new offset counts against it.
-        let why = worsened(&[FeatureKind::JumpSize], &before, &after).unwrap();
+        let why = worsened(&[FeatureKind::JumpSize], &before, &after)
+            .unwrap()
+            .1;
         assert!(why.contains("offset"), "{why}");
         assert_eq!(
             worsened(
@@ -2268,8 +2287,13 @@ mod tests {
         assert_eq!(worsened(&[FeatureKind::JumpSize], &before, &after), None);
         // By more than Q's sd under white noise (6.32): gained.
         let after = [colour(44.0, true)];
-        let why = worsened(&[FeatureKind::JumpSize], &before, &after).unwrap();
-        assert!(why.contains("colour") && why.contains("37.500 to 44.000"), "{why}");
+        let why = worsened(&[FeatureKind::JumpSize], &before, &after)
+            .unwrap()
+            .1;
+        assert!(
+            why.contains("colour") && why.contains("37.500 to 44.000"),
+            "{why}"
+        );
     }
     use super::*;
     use crate::data::synthesize;
