@@ -236,33 +236,6 @@ fn a_fit_strained_against_a_bound_is_searched_again() {
     }
 }
 
-/// A record of the out-of-sample run of commit b4fa5ea (seed 189769194,
-/// its record 66; a hidden stiffness degradation, `kappa_k` 0.40, AR(1)
-/// noise chosen): the fit without it took the spring's `f2` to `f0`, its
-/// ordering constraint (to 4e-13), and no prior bound. The warm refits of
-/// `degradation` gained nothing (BIC +1.4), and nothing was added, while
-/// the truth refitted gains 927.7. A spring on its ordering constraint now
-/// strains the fit as a prior bound does: every candidate's refit gets a
-/// cold start too.
-#[test]
-fn a_spring_on_its_ordering_constraint_strains_the_fit() {
-    use hbis::criticism::calibration::criticise;
-    let seed = 189_769_194 * 1_000_003 + 66;
-    eprintln!("record seed {seed}");
-    let o = criticise(
-        &Registry::builtin(),
-        hidden("degradation"),
-        Sensor::Instant,
-        seed,
-    )
-    .unwrap();
-    eprintln!(
-        "first {:?} ({:+.1}): {}",
-        o.first, o.first_delta_bic, o.reason
-    );
-    assert_eq!(o.accepted.as_deref(), Some("degradation"), "{}", o.reason);
-}
-
 /// A record of the out-of-sample run of commit 0578903 (seed 787327, its
 /// record 96; the third spring branch hidden, AR(1) noise chosen): the
 /// missing branch showed in the jumps at the reversals (where the mass
