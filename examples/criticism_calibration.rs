@@ -38,7 +38,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let clock = std::time::Instant::now();
     let line = |o: &Outcome| {
         eprintln!(
-            "[{:6.0} s] {:?} seed {}: noise {}, first {:?} (BIC {:+.1}), accepted {:?}; {}",
+            "[{:6.0} s] {:?} seed {}: noise {}, first {:?} (BIC {:+.1}), accepted {:?}; {}{}",
             clock.elapsed().as_secs_f64(),
             o.kind,
             o.seed,
@@ -46,7 +46,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             o.first,
             o.first_delta_bic,
             o.accepted,
-            o.reason
+            o.reason,
+            // A hidden effect kept out while another was accepted or
+            // ranked first: its own gates' words.
+            o.hidden_reason
+                .as_ref()
+                .filter(|r| !o.recovered() && **r != o.reason)
+                .map_or(String::new(), |r| format!("; {:?}: {r}", o.hidden))
         )
     };
     let outcomes = study(

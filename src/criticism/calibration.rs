@@ -401,6 +401,10 @@ pub struct Outcome {
     pub accepted: Option<String>,
     /// Its reason, or the best candidate's when none is accepted.
     pub reason: String,
+    /// For a hidden effect: why its own candidate was or was not accepted
+    /// (`None` where it was not refitted), so a miss says which gate kept
+    /// it out even when another candidate was accepted or ranked first.
+    pub hidden_reason: Option<String>,
     /// For a hidden effect: the BIC change from the start model's fit to
     /// the true structure, the better of its refit from the true
     /// parameters and its refit in the ranking.
@@ -537,11 +541,11 @@ pub fn criticise(
         Kind::Hidden(k) => Some(HIDDEN[k].effect.to_string()),
         _ => None,
     };
+    let own = hidden
+        .as_ref()
+        .and_then(|effect| ranked.iter().find(|c| &c.effect == effect));
     let truth_delta_bic = match &hidden {
-        Some(effect) => {
-            let refit = ranked.iter().find(|c| &c.effect == effect);
-            Some(truth_delta_bic(&made, &current, noise, refit, seed)?)
-        }
+        Some(_) => Some(truth_delta_bic(&made, &current, noise, own, seed)?),
         None => None,
     };
     Ok(Outcome {
@@ -559,6 +563,7 @@ pub fn criticise(
         first_delta_bic: ranked.first().map_or(0.0, |c| c.delta_bic),
         accepted: accepted.map(|c| c.effect.clone()),
         reason,
+        hidden_reason: own.map(|c| c.reason.clone()),
         truth_delta_bic,
     })
 }
@@ -782,6 +787,7 @@ mod tests {
             first_delta_bic: truth_delta_bic,
             accepted: accepted.then(|| "friction-decay".into()),
             reason: String::new(),
+            hidden_reason: None,
             truth_delta_bic: Some(truth_delta_bic),
         }
     }

@@ -261,6 +261,8 @@ fn a_refit_that_turns_the_residual_white_explains_it() {
     );
     assert_eq!(o.accepted.as_deref(), Some("trilinear"), "{}", o.reason);
     assert!(o.reason.contains("turns white"), "{}", o.reason);
+    // The hidden effect's own reason is the accepted one's.
+    assert_eq!(o.hidden_reason.as_deref(), Some(o.reason.as_str()));
 }
 
 /// A record with white noise and an accelerometer offset the start model
