@@ -42,9 +42,9 @@
 //!   the model with it a candidate is accepted that makes the structure
 //!   insignificant again; that one is the next step's addition (or a
 //!   better one). A fit can hide a misfit of one part of the model behind
-//!   another's: on a Table 8.1 row 8 record (seed 20261419) a missing
-//!   spring branch hid the friction's slope until `trilinear` was fitted,
-//!   and without this move the ladder stopped at its start, 2,506 in BIC
+//!   another's: on a Table 8.1 row 6 record (seed 20261417) a missing
+//!   spring branch hid the missing damper until `trilinear` was fitted,
+//!   and without this move the ladder stopped at its start, 2,119 in BIC
 //!   above the true structure (`tests/it/search.rs`).
 //!
 //! # Paths
@@ -548,10 +548,10 @@ impl Searcher<'_> {
     /// it a candidate is accepted whose refit makes that structure
     /// insignificant again; `s` moves there and the next step adds that
     /// candidate (or a better one). A missing spring branch can hide a
-    /// friction misfit: at the start of a fresh Table 8.1 row 8 record
-    /// (seed 20261419) `trilinear` lowered BIC by 2,482 but turned the
-    /// jump-direction structure significant (0.094 to 0.635), nothing
-    /// else was accepted, and the ladder stopped at `bilinear+coulomb`.
+    /// missing damper: at the start of a fresh Table 8.1 row 6 record
+    /// (seed 20261417) `trilinear` lowered BIC by 1,550 but turned the
+    /// decay-rate structure significant, nothing else was accepted, and
+    /// the ladder stopped at `bilinear+coulomb`.
     fn unmask(&mut self, s: &mut State, node: &Node) -> Result<Option<Move>, CriticismError> {
         for c in &node.candidates {
             let Some(kind) = c.worsens_only else {
