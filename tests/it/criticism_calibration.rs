@@ -236,6 +236,18 @@ fn a_fit_strained_against_a_bound_is_searched_again() {
     }
 }
 
+/// The calibration record of seed `seed` with the catalog effect `name`
+/// hidden, criticised under the instantaneous sensor; its outcome printed.
+fn hidden_record(name: &str, seed: u64) -> hbis::criticism::calibration::Outcome {
+    use hbis::criticism::calibration::criticise;
+    let o = criticise(&Registry::builtin(), hidden(name), Sensor::Instant, seed).unwrap();
+    eprintln!(
+        "seed {}: first {:?} ({:+.1}), accepted {:?}; {}; the hidden effect's own: {:?}",
+        o.seed, o.first, o.first_delta_bic, o.accepted, o.reason, o.hidden_reason
+    );
+    o
+}
+
 /// A record of the out-of-sample run of commit 0578903 (seed 787327, its
 /// record 96; the third spring branch hidden, AR(1) noise chosen): the
 /// missing branch showed in the jumps at the reversals (where the mass
@@ -247,18 +259,7 @@ fn a_fit_strained_against_a_bound_is_searched_again() {
 /// `friction-decay` again.
 #[test]
 fn a_refit_that_turns_the_residual_white_explains_it() {
-    use hbis::criticism::calibration::criticise;
-    let o = criticise(
-        &Registry::builtin(),
-        hidden("trilinear"),
-        Sensor::Instant,
-        787_329_362_077,
-    )
-    .unwrap();
-    eprintln!(
-        "seed {}: first {:?} ({:+.1}), accepted {:?}; {}",
-        o.seed, o.first, o.first_delta_bic, o.accepted, o.reason
-    );
+    let o = hidden_record("trilinear", 787_329_362_077);
     assert_eq!(o.accepted.as_deref(), Some("trilinear"), "{}", o.reason);
     assert!(o.reason.contains("turns white"), "{}", o.reason);
     // The hidden effect's own reason is the accepted one's.
@@ -277,18 +278,7 @@ fn a_refit_that_turns_the_residual_white_explains_it() {
 /// over the four structures with one).
 #[test]
 fn a_structure_noise_makes_at_three_standard_errors_does_not_refuse_the_truth() {
-    use hbis::criticism::calibration::criticise;
-    let o = criticise(
-        &Registry::builtin(),
-        hidden("viscous"),
-        Sensor::Instant,
-        223_489_868_467_704,
-    )
-    .unwrap();
-    eprintln!(
-        "seed {}: first {:?} ({:+.1}), accepted {:?}; {}; its own: {:?}",
-        o.seed, o.first, o.first_delta_bic, o.accepted, o.reason, o.hidden_reason
-    );
+    let o = hidden_record("viscous", 223_489_868_467_704);
     assert_eq!(
         o.accepted.as_deref(),
         Some("viscous"),
