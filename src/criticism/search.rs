@@ -65,6 +65,7 @@ use rand::rngs::StdRng;
 use rand::{RngExt, SeedableRng};
 use serde::Serialize;
 
+use super::features::{Feature, FeatureKind};
 use super::missing_form::MissingForm;
 use super::ranking::{
     adopt, caution, conclusion, diagnose_ranking, diagnosis_of, fit_model, kind_name,
@@ -565,11 +566,12 @@ impl Searcher<'_> {
             };
             self.settle(&mut trial)?;
             let next = self.node(&mut trial)?;
+            let mut accepted = Vec::new();
             for d in next.candidates.iter().filter(|d| d.accepted) {
                 let after = diagnosis_of(&d.extended, &d.fit, &trial.data)?.features;
-                if !after.iter().any(|f| f.kind == kind && !f.significant) {
-                    continue;
-                }
+                accepted.push((d.effect.as_str(), after));
+            }
+            if let Some(d) = clearing(kind, &accepted) {
                 let m = Move {
                     kind: "add",
                     effect: c.effect.clone(),
@@ -581,7 +583,7 @@ impl Searcher<'_> {
                         "`{}` was kept out only because its refit made the residual's {} significant; beside it `{}` is accepted and makes it insignificant again",
                         c.effect,
                         kind_name(kind),
-                        d.effect
+                        d
                     )),
                 };
                 trial.added.push(Added {
@@ -594,6 +596,19 @@ impl Searcher<'_> {
         }
         Ok(None)
     }
+}
+
+/// The first of the `accepted` candidates (each with its refit's
+/// residual features) whose refit makes the structure `kind`
+/// insignificant: the one an unmask move adds the spring branch for. A
+/// candidate accepted beside a structure it leaves significant does not
+/// show that the branch unmasked a missing effect: the structure may be
+/// the branch's own misfit.
+fn clearing<'a>(kind: FeatureKind, accepted: &[(&'a str, Vec<Feature>)]) -> Option<&'a str> {
+    accepted
+        .iter()
+        .find(|(_, after)| after.iter().any(|f| f.kind == kind && !f.significant))
+        .map(|(effect, _)| *effect)
 }
 
 /// Whether `param` is one of `effect`'s own parameters.
@@ -807,6 +822,31 @@ mod tests {
             .record
             .aligned(None)
             .unwrap()
+    }
+
+    /// The unmask move's second condition: a candidate accepted beside the
+    /// structure the spring branch made significant must make it
+    /// insignificant again; the first that does is the one named.
+    #[test]
+    fn an_unmask_needs_a_candidate_that_clears_the_structure() {
+        let f = |kind, significant| Feature {
+            kind,
+            magnitude: 1.0,
+            z: if significant { 5.0 } else { 1.0 },
+            significant,
+            sentence: String::new(),
+        };
+        let decay = FeatureKind::DecayRate;
+        let leaves = vec![f(decay, true), f(FeatureKind::Colour, false)];
+        let clears = vec![f(decay, false), f(FeatureKind::Colour, true)];
+        let elsewhere = vec![f(FeatureKind::JumpSize, false)];
+        assert_eq!(clearing(decay, &[("lcfm", leaves.clone())]), None);
+        assert_eq!(clearing(decay, &[("offset", elsewhere)]), None);
+        assert_eq!(
+            clearing(decay, &[("lcfm", leaves), ("viscous", clears.clone())]),
+            Some("viscous")
+        );
+        assert_eq!(clearing(FeatureKind::Colour, &[("viscous", clears)]), None);
     }
 
     /// With a looser engine (rtol 1e-7) the ladder on this record added
