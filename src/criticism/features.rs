@@ -39,6 +39,21 @@ pub struct Feature {
     pub sentence: String,
 }
 
+#[cfg(test)]
+impl Feature {
+    /// A feature with the given numbers and no sentence, for tests of the
+    /// rules that read features.
+    pub(crate) fn stub(kind: FeatureKind, magnitude: f64, z: f64, significant: bool) -> Self {
+        Self {
+            kind,
+            magnitude,
+            z,
+            significant,
+            sentence: String::new(),
+        }
+    }
+}
+
 /// Weighted least squares of `y` on `x` with known standard errors `se`:
 /// slope and its standard error (at least three points).
 pub fn weighted_slope(x: &[f64], y: &[f64], se: &[f64]) -> Option<(f64, f64)> {

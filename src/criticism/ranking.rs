@@ -2272,13 +2272,7 @@ mod tests {
     #[test]
     fn a_structure_that_appears_where_the_candidate_does_not_aim_is_worse() {
         use crate::criticism::features::Feature;
-        let f = |kind, significant| Feature {
-            kind,
-            magnitude: 1.0,
-            z: 0.0,
-            significant,
-            sentence: String::new(),
-        };
+        let f = |kind, significant| Feature::stub(kind, 1.0, 0.0, significant);
         let before = [
             f(FeatureKind::Offset, false),
             f(FeatureKind::JumpSize, false),
@@ -2302,13 +2296,8 @@ mod tests {
     #[test]
     fn a_colour_that_crosses_its_threshold_by_a_hair_is_not_gained() {
         use crate::criticism::features::Feature;
-        let colour = |q: f64, significant| Feature {
-            kind: FeatureKind::Colour,
-            magnitude: q,
-            z: f64::NAN,
-            significant,
-            sentence: String::new(),
-        };
+        let colour =
+            |q: f64, significant| Feature::stub(FeatureKind::Colour, q, f64::NAN, significant);
         // Row 6's `lcfm` refit (seed 20261407): across p = 0.01 by 0.135.
         let (before, after) = ([colour(37.500, false)], [colour(37.635, true)]);
         assert_eq!(worsened(&[FeatureKind::JumpSize], &before, &after), None);
@@ -2326,13 +2315,7 @@ mod tests {
     #[test]
     fn a_structure_at_three_standard_errors_is_not_gained_beyond_its_bonferroni_level() {
         use crate::criticism::features::Feature;
-        let jumps = |m: f64, z: f64| Feature {
-            kind: FeatureKind::JumpSize,
-            magnitude: m,
-            z,
-            significant: m > 0.1 && z > 3.0,
-            sentence: String::new(),
-        };
+        let jumps = |m: f64, z: f64| Feature::stub(FeatureKind::JumpSize, m, z, m > 0.1 && z > 3.0);
         // The hidden damper's `viscous` refit (record 223489868467704).
         let before = [jumps(0.080, 0.30)];
         assert_eq!(

@@ -829,12 +829,8 @@ mod tests {
     /// insignificant again; the first that does is the one named.
     #[test]
     fn an_unmask_needs_a_candidate_that_clears_the_structure() {
-        let f = |kind, significant| Feature {
-            kind,
-            magnitude: 1.0,
-            z: if significant { 5.0 } else { 1.0 },
-            significant,
-            sentence: String::new(),
+        let f = |kind, significant| {
+            Feature::stub(kind, 1.0, if significant { 5.0 } else { 1.0 }, significant)
         };
         let decay = FeatureKind::DecayRate;
         let leaves = vec![f(decay, true), f(FeatureKind::Colour, false)];
