@@ -74,12 +74,16 @@ fn one(seed: u64) -> Result<Outcome, String> {
     )
     .map_err(|e| e.to_string())?;
     let accepted = ranked.iter().find(|c| c.accepted).map(|c| c.effect.clone());
-    // As `hbis diagnose` reports it: where no candidate is accepted, the
-    // memory and hysteretic terms alone where they beat the whole form.
+    // As `hbis diagnose` reports it.
     let form = missing_form(&start, &fit, &data, &MapSettings::default())
-        .and_then(|f| match accepted {
-            Some(_) => Ok(f),
-            None => f.stateful_alone(&start, &fit, &data, &MapSettings::default()),
+        .and_then(|f| {
+            f.as_reported(
+                accepted.is_some(),
+                &start,
+                &fit,
+                &data,
+                &MapSettings::default(),
+            )
         })
         .map_err(|e| e.to_string())?;
     let memory = form.terms.iter().find(|t| t.kind == "memory");

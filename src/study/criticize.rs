@@ -218,8 +218,10 @@ pub struct Diagnosis {
 }
 
 /// The missing form a report gives: where no catalog candidate is
-/// accepted, its memory and hysteretic terms alone where they beat the
-/// whole form ([`MissingForm::stateful_alone`]). Where one is, the ladder
+/// accepted, a memory term in place of a hysteretic one where that fits
+/// better ([`MissingForm::memory_instead`]), then its memory and
+/// hysteretic terms alone where they beat the whole form
+/// ([`MissingForm::stateful_alone`]). Where one is, the ladder
 /// adds it next, and that refit (1.2 s on the demo's `record.csv` from
 /// `bilinear+coulomb`, where it changed nothing) is not spent.
 fn reported_form(
@@ -228,10 +230,8 @@ fn reported_form(
     (model, fit, data): (&Model, &ModelFit, &Aligned),
     settings: &MapSettings,
 ) -> Result<MissingForm, CriticismError> {
-    if candidates.iter().any(|c| c.accepted) {
-        return Ok(form);
-    }
-    form.stateful_alone(model, fit, data, settings)
+    let accepted = candidates.iter().any(|c| c.accepted);
+    form.as_reported(accepted, model, fit, data, settings)
 }
 
 /// Fits the start model, diagnoses its residual, and refits and ranks every
