@@ -250,3 +250,47 @@ fn a_memory_term_replaces_a_hysteretic_one_where_its_refit_fits_better() {
         .unwrap();
     assert_eq!(kept.terms, form.terms);
 }
+
+/// Record 12 of `examples/memory_records` with seed 332540 (`r_m` 0.290,
+/// `tau_m` 0.447 s): the form's refits end at a hysteretic and a memory
+/// term together; the memory term alone, refitted from the time
+/// constants of `TAU_STARTS`, lowers BIC further. This is the form `hbis
+/// diagnose` reports where no candidate is accepted.
+#[test]
+fn a_memory_term_alone_from_spread_time_constants_replaces_a_mixed_form() {
+    let (data, floor, tau) = memory_record(332_540_997_632);
+    let start = Model::parse("trilinear+lcfm+viscous").unwrap();
+    let settings = MapSettings::default();
+    let (fit, ranked) = diagnosed(&start, &data);
+    assert!(ranked.iter().all(|c| !c.accepted));
+    let kinds =
+        |f: &hbis::criticism::MissingForm| f.terms.iter().map(|t| t.kind).collect::<Vec<_>>();
+    let before = missing_form(&start, &fit, &data, &settings)
+        .unwrap()
+        .memory_instead(&start, &fit, &data, &settings)
+        .unwrap()
+        .stateful_alone(&start, &fit, &data, &settings)
+        .unwrap();
+    println!(
+        "before: {:?}, BIC {:?}, e2 {:?} of the floor",
+        before.terms,
+        before.delta_bic,
+        before.e2_with.map(|e| e / floor)
+    );
+    assert_eq!(kinds(&before), ["hysteretic", "memory"]);
+    let after = before
+        .clone()
+        .memory_starts(&start, &fit, &data, &settings)
+        .unwrap();
+    println!(
+        "after: {:?}, BIC {:?}, e2 {:?} of the floor",
+        after.terms,
+        after.delta_bic,
+        after.e2_with.map(|e| e / floor)
+    );
+    assert_eq!(kinds(&after), ["memory"]);
+    assert!(after.delta_bic.unwrap() < before.delta_bic.unwrap());
+    let found = after.terms[0].time_constant_s.unwrap();
+    assert!((found / tau - 1.0).abs() <= 0.3, "{found} for {tau}");
+    assert!(!after.effect_file.as_ref().unwrap().contains("z_hys"));
+}
