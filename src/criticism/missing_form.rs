@@ -250,29 +250,41 @@ impl MissingForm {
         else {
             return Ok(self);
         };
-        let terms = vec![term];
-        Ok(Self {
-            effect_file: Some(effect_file_text(&[&col], &terms)),
-            out_of_catalog: held_apart(&[&col], &terms, &has_state),
+        Ok(Self::of_stateful(&[&col], vec![term], &r, fit, self.series))
+    }
+
+    /// A form of memory or hysteretic terms `terms` (from `cols`) alone,
+    /// with the values of their refit `r` (against `fit`), keeping the
+    /// figure's `series`.
+    fn of_stateful(
+        cols: &[&Column],
+        terms: Vec<Term>,
+        r: &ModelFit,
+        fit: &ModelFit,
+        series: Option<FormSeries>,
+    ) -> Self {
+        Self {
+            effect_file: Some(effect_file_text(cols, &terms)),
+            out_of_catalog: held_apart(cols, &terms, &has_state),
             memory_terms: None,
             elastic_lead: None,
             terms,
             e2_with: Some(r.e2),
             delta_bic: Some(r.bic - fit.bic),
-            series: self.series,
+            series,
             stateful: None,
             alternative: None,
-        })
+        }
     }
 
     /// The form with a memory term in place of its hysteretic term (or
     /// beside its terms where it has none), refitted with the model, where
     /// that lowers BIC by more than [`SUPPORT`] and more than the form's
-    /// own refit ([`MissingForm::alternative`]). Linear about a model that lacks the
-    /// force, the regression took a hysteretic or elastic term for a
-    /// Maxwell element's: on records of `examples/memory_records` the form
-    /// was `z` (yield 10 mm) alone, with `e2` 1.22 times the noise floor,
-    /// for a memory force of 0.95 s (docs/criticism.md).
+    /// own refit ([`MissingForm::alternative`]). Linear about a model that
+    /// lacks the force, the regression took a hysteretic or elastic term
+    /// for a Maxwell element's: on records of `examples/memory_records`
+    /// the form was `z` (yield 10 mm) alone, with `e2` 1.22 times the
+    /// noise floor, for a memory force of 0.95 s (docs/criticism.md).
     pub fn memory_instead(
         self,
         model: &Model,
@@ -351,18 +363,7 @@ impl MissingForm {
         }
         let mut terms = st.terms.clone();
         take_values(&mut terms, &alone, &r);
-        Ok(Self {
-            effect_file: Some(effect_file_text(&cols, &terms)),
-            out_of_catalog: held_apart(&cols, &terms, &has_state),
-            memory_terms: None,
-            elastic_lead: None,
-            terms,
-            e2_with: Some(r.e2),
-            delta_bic: Some(r.bic - fit.bic),
-            series: self.series,
-            stateful: None,
-            alternative: None,
-        })
+        Ok(Self::of_stateful(&cols, terms, &r, fit, self.series))
     }
 }
 

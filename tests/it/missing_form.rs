@@ -168,6 +168,32 @@ fn memory_record(seed: u64) -> (Aligned, f64, f64) {
     (data, floor, tau)
 }
 
+/// The record of [`memory_record`] diagnosed from
+/// `trilinear+lcfm+viscous`, where no candidate is accepted (asserted):
+/// the record, its floor and `tau_m`, the start model and its fit.
+fn undecided(seed: u64) -> (Aligned, f64, f64, Model, ModelFit) {
+    let (data, floor, tau) = memory_record(seed);
+    let start = Model::parse("trilinear+lcfm+viscous").unwrap();
+    let (fit, ranked) = diagnosed(&start, &data);
+    assert!(ranked.iter().all(|c| !c.accepted));
+    (data, floor, tau, start, fit)
+}
+
+/// Prints a form's terms, change of BIC and `e2` over the noise floor.
+fn show(label: &str, f: &hbis::criticism::MissingForm, floor: f64) {
+    println!(
+        "{label}: {:?}, BIC {:?}, e2 {:?} of the floor",
+        f.terms,
+        f.delta_bic,
+        f.e2_with.map(|e| e / floor)
+    );
+}
+
+/// The kinds of a form's terms, in order.
+fn kinds(f: &hbis::criticism::MissingForm) -> Vec<&'static str> {
+    f.terms.iter().map(|t| t.kind).collect()
+}
+
 /// Record 18 of `examples/memory_records` with seed 332540 (`r_m` 0.131,
 /// `tau_m` 1.193 s): the sparse regression put a travel term beside the
 /// memory term
@@ -176,14 +202,9 @@ fn memory_record(seed: u64) -> (Aligned, f64, f64) {
 /// the form `hbis diagnose` reports where no candidate is accepted.
 #[test]
 fn a_memory_term_is_reported_alone_where_the_terms_beside_it_do_not_pay() {
-    let (data, _, tau) = memory_record(332_540_997_638);
-    let start = Model::parse("trilinear+lcfm+viscous").unwrap();
+    let (data, _, tau, start, fit) = undecided(332_540_997_638);
     let settings = MapSettings::default();
-    let (fit, ranked) = diagnosed(&start, &data);
-    assert!(ranked.iter().all(|c| !c.accepted));
     let whole = missing_form(&start, &fit, &data, &settings).unwrap();
-    let kinds =
-        |f: &hbis::criticism::MissingForm| f.terms.iter().map(|t| t.kind).collect::<Vec<_>>();
     println!("whole: {:?}, BIC {:?}", whole.terms, whole.delta_bic);
     assert!(kinds(&whole).len() > 1 && kinds(&whole).contains(&"memory"));
     let alone = whole
@@ -214,31 +235,16 @@ fn a_memory_term_is_reported_alone_where_the_terms_beside_it_do_not_pay() {
 /// is accepted.
 #[test]
 fn a_memory_term_replaces_a_hysteretic_one_where_its_refit_fits_better() {
-    let (data, floor, tau) = memory_record(332_540_997_636);
-    let start = Model::parse("trilinear+lcfm+viscous").unwrap();
+    let (data, floor, tau, start, fit) = undecided(332_540_997_636);
     let settings = MapSettings::default();
-    let (fit, ranked) = diagnosed(&start, &data);
-    assert!(ranked.iter().all(|c| !c.accepted));
     let form = missing_form(&start, &fit, &data, &settings).unwrap();
-    let kinds =
-        |f: &hbis::criticism::MissingForm| f.terms.iter().map(|t| t.kind).collect::<Vec<_>>();
-    println!(
-        "form: {:?}, BIC {:?}, e2 {:?} of the floor",
-        form.terms,
-        form.delta_bic,
-        form.e2_with.map(|e| e / floor)
-    );
+    show("form", &form, floor);
     assert_eq!(kinds(&form), ["hysteretic"]);
     let reported = form
         .clone()
         .as_reported(false, &start, &fit, &data, &settings)
         .unwrap();
-    println!(
-        "reported: {:?}, BIC {:?}, e2 {:?} of the floor",
-        reported.terms,
-        reported.delta_bic,
-        reported.e2_with.map(|e| e / floor)
-    );
+    show("reported", &reported, floor);
     assert_eq!(kinds(&reported), ["memory"]);
     assert!(reported.delta_bic.unwrap() < form.delta_bic.unwrap());
     let found = reported.terms[0].time_constant_s.unwrap();
@@ -258,36 +264,21 @@ fn a_memory_term_replaces_a_hysteretic_one_where_its_refit_fits_better() {
 /// diagnose` reports where no candidate is accepted.
 #[test]
 fn a_memory_term_alone_from_spread_time_constants_replaces_a_mixed_form() {
-    let (data, floor, tau) = memory_record(332_540_997_632);
-    let start = Model::parse("trilinear+lcfm+viscous").unwrap();
+    let (data, floor, tau, start, fit) = undecided(332_540_997_632);
     let settings = MapSettings::default();
-    let (fit, ranked) = diagnosed(&start, &data);
-    assert!(ranked.iter().all(|c| !c.accepted));
-    let kinds =
-        |f: &hbis::criticism::MissingForm| f.terms.iter().map(|t| t.kind).collect::<Vec<_>>();
     let before = missing_form(&start, &fit, &data, &settings)
         .unwrap()
         .memory_instead(&start, &fit, &data, &settings)
         .unwrap()
         .stateful_alone(&start, &fit, &data, &settings)
         .unwrap();
-    println!(
-        "before: {:?}, BIC {:?}, e2 {:?} of the floor",
-        before.terms,
-        before.delta_bic,
-        before.e2_with.map(|e| e / floor)
-    );
+    show("before", &before, floor);
     assert_eq!(kinds(&before), ["hysteretic", "memory"]);
     let after = before
         .clone()
         .memory_starts(&start, &fit, &data, &settings)
         .unwrap();
-    println!(
-        "after: {:?}, BIC {:?}, e2 {:?} of the floor",
-        after.terms,
-        after.delta_bic,
-        after.e2_with.map(|e| e / floor)
-    );
+    show("after", &after, floor);
     assert_eq!(kinds(&after), ["memory"]);
     assert!(after.delta_bic.unwrap() < before.delta_bic.unwrap());
     let found = after.terms[0].time_constant_s.unwrap();
