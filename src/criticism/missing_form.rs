@@ -196,7 +196,8 @@ impl MissingForm {
 
     /// The form as a report gives it where no candidate is accepted
     /// (`any_accepted` false): [`MissingForm::memory_instead`], then
-    /// [`MissingForm::stateful_alone`]. Otherwise the form unchanged.
+    /// [`MissingForm::stateful_alone`], then
+    /// [`MissingForm::memory_starts`]. Otherwise the form unchanged.
     pub fn as_reported(
         self,
         any_accepted: bool,

@@ -221,7 +221,9 @@ pub struct Diagnosis {
 /// accepted, a memory term in place of a hysteretic one where that fits
 /// better ([`MissingForm::memory_instead`]), then its memory and
 /// hysteretic terms alone where they beat the whole form
-/// ([`MissingForm::stateful_alone`]). Where one is, the ladder
+/// ([`MissingForm::stateful_alone`]), then its memory term alone from
+/// spread time constants ([`MissingForm::memory_starts`];
+/// [`MissingForm::as_reported`]). Where one is, the ladder
 /// adds it next, and that refit (1.2 s on the demo's `record.csv` from
 /// `bilinear+coulomb`, where it changed nothing) is not spent.
 fn reported_form(
