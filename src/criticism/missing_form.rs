@@ -224,7 +224,7 @@ impl MissingForm {
     /// the noise floor) for a truth of 0.53 s (docs/criticism.md). Its
     /// `share` stays the form's.
     ///
-    /// Beside those local refits, one global search ([`memory_global`])
+    /// Beside those local refits, one global search (`memory_global`)
     /// fits the model with a memory term alone from its whole prior: the
     /// model's own parameters, fitted without the force, sit in a basin
     /// that a local refit does not leave (on a record of
@@ -402,10 +402,11 @@ impl MissingForm {
 /// Seed of the refit of the terms with the model.
 const REFIT_SEED: u64 = 0x3155_F0E3;
 
-/// Evaluations of [`memory_global`]'s search: on the record of its
-/// example (`MissingForm::memory_starts`) 20,000 ended 1,000 nats above
-/// the start model, 60,000 within one nat of the truth's refit (2.8 s on
-/// two cores).
+/// Evaluations of the global search of [`MissingForm::memory_starts`]:
+/// on the record of its example, a global fit of the true structure (the
+/// built-in `maxwell`) ended 1,000 nats above the start model with
+/// 20,000, within one nat of the truth's refit with 60,000 (2.8-3.5 s on
+/// two cores, four seeds of four) and no better with 120,000.
 pub const GLOBAL_BUDGET: usize = 60_000;
 
 /// The model with a memory term alone, fitted by a global search over its

@@ -264,21 +264,8 @@ fn a_memory_term_replaces_a_hysteretic_one_where_its_refit_fits_better() {
 /// diagnose` reports where no candidate is accepted.
 #[test]
 fn a_memory_term_alone_from_spread_time_constants_replaces_a_mixed_form() {
-    let (data, floor, tau, start, fit) = undecided(332_540_997_632);
-    let settings = MapSettings::default();
-    let before = missing_form(&start, &fit, &data, &settings)
-        .unwrap()
-        .memory_instead(&start, &fit, &data, &settings)
-        .unwrap()
-        .stateful_alone(&start, &fit, &data, &settings)
-        .unwrap();
-    show("before", &before, floor);
+    let (before, after, _, tau) = around_starts(332_540_997_632);
     assert_eq!(kinds(&before), ["hysteretic", "memory"]);
-    let after = before
-        .clone()
-        .memory_starts(&start, &fit, &data, &settings)
-        .unwrap();
-    show("after", &after, floor);
     assert_eq!(kinds(&after), ["memory"]);
     assert!(after.delta_bic.unwrap() < before.delta_bic.unwrap());
     let found = after.terms[0].time_constant_s.unwrap();
@@ -286,12 +273,18 @@ fn a_memory_term_alone_from_spread_time_constants_replaces_a_mixed_form() {
     assert!(!after.effect_file.as_ref().unwrap().contains("z_hys"));
 }
 
-/// The form of record `seed` of `examples/memory_records` before and
-/// after [`hbis::criticism::MissingForm::memory_starts`], with its floor
-/// and `tau_m`, the start model, the record and a check that the form
-/// after it, loaded back as a user would (`--effects`) and fitted from
-/// scratch, reaches the noise floor within 3 %.
-fn before_and_after_starts(seed: u64) -> (Vec<&'static str>, hbis::criticism::MissingForm, f64) {
+/// The form of record `seed` of `examples/memory_records` (diagnosed as
+/// [`undecided`]) before and after
+/// [`hbis::criticism::MissingForm::memory_starts`], and the record with
+/// its `tau_m`, start model and floor.
+fn around_starts(
+    seed: u64,
+) -> (
+    hbis::criticism::MissingForm,
+    hbis::criticism::MissingForm,
+    (Aligned, Model, f64),
+    f64,
+) {
     let (data, floor, tau, start, fit) = undecided(seed);
     let settings = MapSettings::default();
     let before = missing_form(&start, &fit, &data, &settings)
@@ -306,12 +299,22 @@ fn before_and_after_starts(seed: u64) -> (Vec<&'static str>, hbis::criticism::Mi
         .memory_starts(&start, &fit, &data, &settings)
         .unwrap();
     show("after", &after, floor);
+    (before, after, (data, start, floor), tau)
+}
+
+/// [`around_starts`], with checks that the form after it lowers BIC
+/// further and, loaded back as a user would (`--effects`) and fitted from
+/// scratch, reaches the noise floor within 3 %: the kinds before, the
+/// form after, `tau_m`.
+fn before_and_after_starts(seed: u64) -> (Vec<&'static str>, hbis::criticism::MissingForm, f64) {
+    let (before, after, (data, start, floor), tau) = around_starts(seed);
     assert!(after.delta_bic.unwrap() < before.delta_bic.unwrap());
     // The global search's coefficient was relative to `k0`; the file's is
     // absolute.
     let effect =
         FileEffect::from_toml(after.effect_file.as_ref().unwrap(), "missing.toml").unwrap();
     let extended = start.with_force(Arc::new(effect));
+    let settings = MapSettings::default();
     let refit = fit_model(&extended, &data, Noise::White, None, &settings, 2).unwrap();
     println!(
         "with the effect file: e2 {:.3} of the floor",
