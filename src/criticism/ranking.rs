@@ -1853,7 +1853,15 @@ fn e2_limit(rho: f64, n: usize) -> f64 {
 /// A candidate's refit: the candidate, its score, the fit, starts,
 /// agreeing starts, what a search from its best still gained where it did
 /// not converge ([`settle`]), and the indices of its new parameters.
-type Refit = (Candidate, f64, ModelFit, usize, usize, Option<f64>, Vec<usize>);
+type Refit = (
+    Candidate,
+    f64,
+    ModelFit,
+    usize,
+    usize,
+    Option<f64>,
+    Vec<usize>,
+);
 
 /// Ranked candidates, and the current model's fit they are compared with.
 #[derive(Debug, Clone)]

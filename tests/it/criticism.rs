@@ -392,7 +392,10 @@ fn searches_that_stop_at_their_budget_are_reported_and_not_converged_ones_not_ra
     // `viscous`, the record's missing effect, converges and is ranked.
     let c = &d.candidates[0];
     assert!(c.converged && c.accepted, "{c:?}");
-    assert!(!found.contains(&"refits-not-converged".to_string()), "{found:?}");
+    assert!(
+        !found.contains(&"refits-not-converged".to_string()),
+        "{found:?}"
+    );
     let evals: Vec<_> = d
         .candidates
         .iter()
