@@ -151,26 +151,15 @@ fn with_fit_warnings(mut warnings: Vec<Warning>, model: &Model, fit: &ModelFit) 
     warnings
 }
 
-/// `refits-at-budget` and `refits-not-converged` over `candidates`, each
-/// named by `label`.
+/// `refits-at-budget` over `candidates`, each named by `label`.
 fn refit_warnings<'c>(
     candidates: impl Iterator<Item = (String, &'c RankedCandidate)>,
-) -> Vec<Warning> {
-    let candidates: Vec<_> = candidates.collect();
+) -> Option<Warning> {
     let at: Vec<(String, u64)> = candidates
-        .iter()
         .filter(|(_, c)| c.at_budget)
-        .map(|(label, c)| (label.clone(), c.evaluations))
-        .collect();
-    let unsettled: Vec<String> = candidates
-        .iter()
-        .filter(|(_, c)| !c.converged)
-        .map(|(label, _)| label.clone())
+        .map(|(label, c)| (label, c.evaluations))
         .collect();
     crate::criticism::sanity::refits_at_budget(&at)
-        .into_iter()
-        .chain(crate::criticism::sanity::refits_not_converged(&unsettled))
-        .collect()
 }
 
 /// `diagnosis.json`.
