@@ -84,6 +84,33 @@ pub fn refits_at_budget(refits: &[(String, u64)]) -> Option<Warning> {
     })
 }
 
+/// `refits-not-converged` when candidate refits did not converge (no two
+/// runs reached their best: [`crate::criticism::ranking::SETTLE_ROUNDS`]):
+/// `refits` names each. They are not ranked.
+///
+/// ```
+/// let w = hbis::criticism::sanity::refits_not_converged(&["step 1: lcfm".into()]).unwrap();
+/// assert_eq!(w.code, "refits-not-converged");
+/// assert!(w.message.contains("step 1: lcfm"));
+/// assert!(hbis::criticism::sanity::refits_not_converged(&[]).is_none());
+/// ```
+pub fn refits_not_converged(refits: &[String]) -> Option<Warning> {
+    if refits.is_empty() {
+        return None;
+    }
+    Some(Warning {
+        code: "refits-not-converged".into(),
+        message: format!(
+            "{} candidate refit(s) did not converge (no two runs reached the best, and a local \
+             search from it still gained more than one unit of log-likelihood): {}; they are \
+             reported but not ranked, and may support their effect once refitted with a larger \
+             budget",
+            refits.len(),
+            refits.join(", ")
+        ),
+    })
+}
+
 /// Which bound of the finite range `[lo, hi]` `x` lies within
 /// [`AT_BOUND`] of the range from, if any. A lower bound of exactly 0 is
 /// left out: there a parameter at the bound means the effect is absent

@@ -151,15 +151,26 @@ fn with_fit_warnings(mut warnings: Vec<Warning>, model: &Model, fit: &ModelFit) 
     warnings
 }
 
-/// `refits-at-budget` over `candidates`, each named by `label`.
+/// `refits-at-budget` and `refits-not-converged` over `candidates`, each
+/// named by `label`.
 fn refit_warnings<'c>(
     candidates: impl Iterator<Item = (String, &'c RankedCandidate)>,
-) -> Option<Warning> {
+) -> Vec<Warning> {
+    let candidates: Vec<_> = candidates.collect();
     let at: Vec<(String, u64)> = candidates
+        .iter()
         .filter(|(_, c)| c.at_budget)
-        .map(|(label, c)| (label, c.evaluations))
+        .map(|(label, c)| (label.clone(), c.evaluations))
+        .collect();
+    let unsettled: Vec<String> = candidates
+        .iter()
+        .filter(|(_, c)| !c.converged)
+        .map(|(label, _)| label.clone())
         .collect();
     crate::criticism::sanity::refits_at_budget(&at)
+        .into_iter()
+        .chain(crate::criticism::sanity::refits_not_converged(&unsettled))
+        .collect()
 }
 
 /// `diagnosis.json`.

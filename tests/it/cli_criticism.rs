@@ -43,6 +43,9 @@ fn diagnose_writes_the_documented_keys() {
     assert_eq!(v, file);
     assert_eq!(v["model"], "trilinear+lcfm");
     assert!(v["e2"].is_f64() && v["verdict"].is_string());
+    for c in v["candidates"].as_array().unwrap() {
+        assert!(c["converged"].is_boolean() && c["agreeing"].is_u64(), "{c}");
+    }
     let html = std::fs::read_to_string(d.path().join("dx/report.html")).unwrap();
     // The residual, its map, and the missing form's figure when it names
     // terms (here viscous damping is missing).
