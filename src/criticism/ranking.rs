@@ -624,7 +624,7 @@ fn multi_start(
     noise: Noise,
     settings: &MapSettings,
     rng: &mut StdRng,
-) -> Result<(ModelFit, usize, usize, Option<f64>), CriticismError> {
+) -> Result<(ModelFit, Runs), CriticismError> {
     // Each start runs a local search; the global search runs only where
     // the starts disagree, from the best of them.
     let per_start = local_from_warm(true, settings)?;
@@ -662,9 +662,24 @@ fn multi_start(
         fits.push(map_of(&c.model, data, noise, from, settings, rng.random())?);
     }
     let unsettled = settle(c, &mut fits, data, noise, &per_start, confirm_seed)?;
-    let (agree, n) = (agreeing(&fits), fits.len());
+    let runs = Runs {
+        starts: fits.len(),
+        agreeing: agreeing(&fits),
+        unsettled,
+    };
     let (fit, cmp) = fits.swap_remove(best_of(&fits));
-    Ok((with_evidence(&c.model, &fit, cmp)?, n, agree, unsettled))
+    Ok((with_evidence(&c.model, &fit, cmp)?, runs))
+}
+
+/// The runs of a candidate's refit ([`multi_start`]).
+struct Runs {
+    /// Its starts, the global search and the searches from its best.
+    starts: usize,
+    /// How many reached the best within one unit of log-likelihood.
+    agreeing: usize,
+    /// What the last search from its best still gained where the refit
+    /// did not converge ([`settle`]).
+    unsettled: Option<f64>,
 }
 
 /// Local searches from the best refit where no second start reached it
@@ -916,7 +931,7 @@ fn rank_from(
             } else {
                 &[0.5]
             };
-            let (refit, n_starts, agreeing, unsettled) = multi_start(
+            let (fit, runs) = multi_start(
                 &c,
                 starts(&c, &new, spread, data),
                 strained,
@@ -925,7 +940,13 @@ fn rank_from(
                 budget,
                 &mut rng,
             )?;
-            refits.push((c, score, refit, n_starts, agreeing, unsettled, new));
+            refits.push(Refit {
+                candidate: c,
+                score,
+                fit,
+                runs,
+                new,
+            });
         }
         Ok((refits, screened))
     };
@@ -997,13 +1018,20 @@ fn rank_from(
         .iter()
         .map(|r| {
             let base = match &numeric_baseline {
-                Some(b) if !r.0.model.closed_form() => b,
+                Some(b) if !r.candidate.model.closed_form() => b,
                 _ => fit,
             };
-            r.2.bic - base.bic
+            r.fit.bic - base.bic
         })
         .fold(f64::INFINITY, f64::min);
-    for (c, score, refit, n_starts, agreeing, unsettled, new) in refits {
+    for Refit {
+        candidate: c,
+        score,
+        fit: refit,
+        runs,
+        new,
+    } in refits
+    {
         let physical_size = physical_size(&c.model, &refit.theta, &new);
         let (fit, before, base_model) = match (&numeric_baseline, &features_numeric) {
             (Some(b), Some(f)) if !c.model.closed_form() => (b, f, &numeric_current),
@@ -1054,7 +1082,7 @@ fn rank_from(
             target_before,
             target_after,
             whitens: whitened(before, &after),
-            unsettled: unsettled_reason(unsettled),
+            unsettled: unsettled_reason(runs.unsettled),
         };
         // Asked only of a candidate that would be added, or would be but
         // for a pin or a structure it unmasks, which the ladder's unpin
@@ -1124,8 +1152,8 @@ fn rank_from(
             raw_e2_ratio: gate.raw_e2_ratio,
             supported: gate.supported(),
             signature: c.signature.clone(),
-            starts: n_starts,
-            agreeing,
+            starts: runs.starts,
+            agreeing: runs.agreeing,
             converged: gate.unsettled.is_none(),
             fit: refit,
             extended: c.model.clone(),
@@ -1869,18 +1897,16 @@ fn e2_limit(rho: f64, n: usize) -> f64 {
     1.0 + RAW_E2_SE * (2.0 / n_eff).sqrt()
 }
 
-/// A candidate's refit: the candidate, its score, the fit, starts,
-/// agreeing starts, what a search from its best still gained where it did
-/// not converge ([`settle`]), and the indices of its new parameters.
-type Refit = (
-    Candidate,
-    f64,
-    ModelFit,
-    usize,
-    usize,
-    Option<f64>,
-    Vec<usize>,
-);
+/// A candidate's refit.
+struct Refit {
+    candidate: Candidate,
+    /// Its score test ([`score_test`]).
+    score: f64,
+    fit: ModelFit,
+    runs: Runs,
+    /// The indices of its new parameters.
+    new: Vec<usize>,
+}
 
 /// Ranked candidates, and the current model's fit they are compared with.
 #[derive(Debug, Clone)]
@@ -1929,16 +1955,22 @@ fn improve_baseline(
         base.noise,
     )?;
     let mut order: Vec<usize> = (0..refits.len())
-        .filter(|&i| !same_engine || refits[i].0.model.closed_form() == current.closed_form())
+        .filter(|&i| {
+            !same_engine || refits[i].candidate.model.closed_form() == current.closed_form()
+        })
         .collect();
     order.sort_by(|&a, &b| {
         refits[b]
-            .2
+            .fit
             .log_likelihood
-            .total_cmp(&refits[a].2.log_likelihood)
+            .total_cmp(&refits[a].fit.log_likelihood)
     });
     for i in order {
-        let (c, _, refit, _, _, _, _) = &refits[i];
+        let Refit {
+            candidate: c,
+            fit: refit,
+            ..
+        } = &refits[i];
         if refit.log_likelihood <= base.log_likelihood {
             continue;
         }
