@@ -614,8 +614,8 @@ fn rms(x: &[f64]) -> f64 {
     (x.iter().map(|v| v * v).sum::<f64>() / x.len().max(1) as f64).sqrt()
 }
 
-/// Refits `c` from each start; the best, with how many starts reached it
-/// (within one unit of log-likelihood).
+/// Refits `c` from each start, each start's seed drawn from `rng` in
+/// order; the fits, to be settled by [`converged_best`].
 fn multi_start(
     c: &Candidate,
     starts: Vec<Vec<f64>>,
@@ -624,7 +624,7 @@ fn multi_start(
     noise: Noise,
     settings: &MapSettings,
     rng: &mut StdRng,
-) -> Result<(ModelFit, Runs), CriticismError> {
+) -> Result<Started, CriticismError> {
     // Each start runs a local search; the global search runs only where
     // the starts disagree, from the best of them.
     let per_start = local_from_warm(true, settings)?;
@@ -661,6 +661,36 @@ fn multi_start(
         });
         fits.push(map_of(&c.model, data, noise, from, settings, rng.random())?);
     }
+    Ok(Started {
+        fits,
+        per_start,
+        confirm_seed,
+    })
+}
+
+/// A candidate's fits from its starts ([`multi_start`]), with the
+/// settings and seed its searches from the best use ([`settle`]).
+struct Started {
+    fits: Vec<Refitted>,
+    per_start: MapSettings,
+    confirm_seed: u64,
+}
+
+/// The best of a candidate's fits once settled ([`settle`]), with its
+/// evidence and how many runs reached it. Depends on `started` alone (no
+/// shared generator): candidates are settled side by side, since a
+/// settling search is one run after another.
+fn converged_best(
+    c: &Candidate,
+    started: Started,
+    data: &Aligned,
+    noise: Noise,
+) -> Result<(ModelFit, Runs), CriticismError> {
+    let Started {
+        mut fits,
+        per_start,
+        confirm_seed,
+    } = started;
     let unsettled = settle(c, &mut fits, data, noise, &per_start, confirm_seed)?;
     let runs = Runs {
         starts: fits.len(),
@@ -931,7 +961,7 @@ fn rank_from(
             } else {
                 &[0.5]
             };
-            let (fit, runs) = multi_start(
+            let started = multi_start(
                 &c,
                 starts(&c, &new, spread, data),
                 strained,
@@ -940,14 +970,21 @@ fn rank_from(
                 budget,
                 &mut rng,
             )?;
-            refits.push(Refit {
-                candidate: c,
-                score,
-                fit,
-                runs,
-                new,
-            });
+            refits.push((c, score, started, new));
         }
+        let refits = refits
+            .into_par_iter()
+            .map(|(c, score, started, new)| {
+                let (fit, runs) = converged_best(&c, started, data, noise)?;
+                Ok(Refit {
+                    candidate: c,
+                    score,
+                    fit,
+                    runs,
+                    new,
+                })
+            })
+            .collect::<Result<Vec<_>, CriticismError>>()?;
         Ok((refits, screened))
     };
     let (numeric_baseline, refitted) = rayon::join(numeric_baseline, refit_all);
