@@ -409,6 +409,12 @@ pub struct Outcome {
     /// the true structure, the better of its refit from the true
     /// parameters and its refit in the ranking.
     pub truth_delta_bic: Option<f64>,
+    /// The candidates whose refit did not converge (still gaining after
+    /// the searches from its best: not ranked).
+    pub unconverged: Vec<String>,
+    /// The candidates whose best search stopped at its evaluation budget
+    /// (ranked, and reported so).
+    pub at_budget: Vec<String>,
 }
 
 impl Outcome {
@@ -565,7 +571,18 @@ pub fn criticise(
         reason,
         hidden_reason: own.map(|c| c.reason.clone()),
         truth_delta_bic,
+        unconverged: names(&ranked, |c| !c.converged),
+        at_budget: names(&ranked, |c| c.at_budget),
     })
+}
+
+/// The effects of the candidates that `pick` selects, in ranking order.
+fn names(ranked: &[RankedCandidate], pick: impl Fn(&RankedCandidate) -> bool) -> Vec<String> {
+    ranked
+        .iter()
+        .filter(|c| pick(c))
+        .map(|c| c.effect.clone())
+        .collect()
 }
 
 /// The BIC change from the start model's fit `current` to the true
@@ -741,7 +758,24 @@ pub fn table(outcomes: &[Outcome]) -> String {
         count(&|o| o.detectable() && o.recovered()),
         detectable,
     ));
+    out.push_str(&refits_line(outcomes));
     out
+}
+
+/// How many candidate refits did not converge or stopped at their
+/// budget, over all records: a convergence failure in a miss shows here
+/// even when the reason printed is another candidate's.
+fn refits_line(outcomes: &[Outcome]) -> String {
+    let total = |f: &dyn Fn(&Outcome) -> usize| outcomes.iter().map(f).sum::<usize>();
+    let records = |f: &dyn Fn(&Outcome) -> bool| outcomes.iter().filter(|o| f(o)).count();
+    format!(
+        "candidate refits not converged: {} (on {} of {} records); at their budget: {} (on {} of them)\n",
+        total(&|o| o.unconverged.len()),
+        records(&|o| !o.unconverged.is_empty()),
+        outcomes.len(),
+        total(&|o| o.at_budget.len()),
+        records(&|o| !o.at_budget.is_empty()),
+    )
 }
 
 #[cfg(test)]
@@ -789,6 +823,8 @@ mod tests {
             reason: String::new(),
             hidden_reason: None,
             truth_delta_bic: Some(truth_delta_bic),
+            unconverged: Vec::new(),
+            at_budget: Vec::new(),
         }
     }
 
@@ -806,6 +842,23 @@ mod tests {
         assert!(t.contains("beats the start by BIC -10): 2 of 4"), "{t}");
         assert!(
             t.contains("detectable hidden effects recovered (accepted): 1 of 2"),
+            "{t}"
+        );
+    }
+
+    #[test]
+    fn refits_that_did_not_converge_are_counted_over_every_candidate() {
+        let mut outcomes = [
+            hidden(-40.0, true),
+            hidden(-12.0, false),
+            hidden(3.0, false),
+        ];
+        outcomes[0].unconverged = vec!["offset".into(), "lcfm".into()];
+        outcomes[1].at_budget = vec!["viscous".into(), "offset".into(), "lcfm".into()];
+        outcomes[2].unconverged = vec!["degradation".into()];
+        let t = table(&outcomes);
+        assert!(
+            t.contains("not converged: 3 (on 2 of 3 records); at their budget: 3 (on 1 of them)"),
             "{t}"
         );
     }
