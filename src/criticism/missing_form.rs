@@ -286,6 +286,21 @@ impl MissingForm {
         Ok(Self::of_stateful(&[&col], vec![term], &r, fit, self.series))
     }
 
+    /// The memory term that [`MissingForm::memory_starts`] puts in the
+    /// form's place, as terms no catalog component makes; `None` where it
+    /// keeps the form (no memory term alone lowers BIC more).
+    pub fn memory_search(
+        &self,
+        model: &Model,
+        fit: &ModelFit,
+        data: &Aligned,
+        settings: &MapSettings,
+    ) -> Result<Option<OutOfCatalog>, CriticismError> {
+        let found = self.clone().memory_starts(model, fit, data, settings)?;
+        let replaced = found != *self && found.terms.iter().all(|t| t.kind == "memory");
+        Ok(found.out_of_catalog.filter(|_| replaced))
+    }
+
     /// A form of memory or hysteretic terms `terms` (from `cols`) alone,
     /// with the values of their refit `r` (against `fit`), keeping the
     /// figure's `series`.
