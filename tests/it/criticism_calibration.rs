@@ -490,19 +490,7 @@ fn a_start_fit_whose_runs_disagree_is_searched_again() {
 /// record gets `friction-decay` again.
 #[test]
 fn a_catalog_effect_that_stands_in_for_a_memory_force_the_form_misses_is_refused() {
-    use hbis::criticism::calibration::criticise;
-    let seed = 245_837_807u64.wrapping_mul(1_000_003) + 58;
-    let o = criticise(
-        &Registry::builtin(),
-        Kind::Outside(0),
-        Sensor::Instant,
-        seed,
-    )
-    .unwrap();
-    eprintln!(
-        "seed {}: {:?}, first {:?} ({:+.1}), accepted {:?}; {}",
-        o.seed, o.hidden_values, o.first, o.first_delta_bic, o.accepted, o.reason
-    );
+    let o = maxwell_record(245_837_807u64.wrapping_mul(1_000_003) + 58);
     assert!(!o.false_discovery(), "{:?}: {}", o.accepted, o.reason);
     assert!(o.reason.contains("memory term"), "{}", o.reason);
 }
