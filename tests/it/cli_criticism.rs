@@ -154,6 +154,11 @@ fn ladder_writes_its_steps() {
             "rec.csv",
             "--model",
             "trilinear+lcfm",
+            // The keys and the path, not the catalog's ranking (the
+            // `search` tests): the damper beside a numerical stand-in for
+            // it and an offset, a third of the full catalog's cost.
+            "--candidates",
+            "viscous,velocity-friction,offset",
             "--out",
             "lx",
             "--json",
@@ -281,6 +286,10 @@ fn diagnose_and_the_ladder_agree_on_a_coloured_record() {
         "trilinear+lcfm+viscous",
         "--noise",
         "auto",
+        // Two candidates on the numerical engine and one in closed form:
+        // the agreement, not the catalog's ranking.
+        "--candidates",
+        "velocity-friction,friction-decay,offset",
         "--seed",
         "3",
         "--json",
