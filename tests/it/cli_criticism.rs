@@ -156,7 +156,7 @@ fn ladder_writes_its_steps() {
             "trilinear+lcfm",
             // The keys and the path, not the catalog's ranking (the
             // `search` tests): the damper beside a numerical stand-in for
-            // it and an offset, a third of the full catalog's cost.
+            // it and an offset.
             "--candidates",
             "viscous,velocity-friction,offset",
             "--out",
