@@ -221,6 +221,16 @@ pub trait ForceComponent: Send + Sync {
         let _ = mem;
         self.modify(theta, state, forces);
     }
+    /// Whether, within a phase of one sliding direction, its change to
+    /// the forces and its states' rates are affine in `u`, `v` and its
+    /// states (the travel is affine in `u` there), constant in time, and
+    /// its factors on the spring and friction forces constant: the
+    /// numerical engine then solves each phase exactly
+    /// ([`crate::numeric::affine`]) where every component is. By default
+    /// no.
+    fn affine(&self) -> bool {
+        false
+    }
     /// Displacements where its force has a kink: the numerical engine
     /// stops a step there instead of smoothing over it.
     fn kinks(&self, theta: &[f64], out: &mut Vec<f64>) {

@@ -387,6 +387,26 @@ impl Model {
             .collect()
     }
 
+    /// The motion's acceleration computed by the numerical engine's
+    /// adaptive integrator at relative tolerance `rtol` on every phase,
+    /// also where the engine solves a phase by its exact flow
+    /// ([`crate::numeric::affine`]): the independent integration the
+    /// engine is checked against (the engine's own tolerance is
+    /// [`super::numeric::RTOL`]).
+    pub fn adaptive_grid_into(
+        &self,
+        theta: &[f64],
+        (start, dt): (f64, f64),
+        rtol: f64,
+        out: &mut [f64],
+    ) -> Result<(), SimError> {
+        let system = self.system(theta)?;
+        let terms = self.numeric_terms(theta);
+        NumericSystem::with_terms(system, &terms)
+            .adaptive(rtol)
+            .accel_grid_into(start, dt, out)
+    }
+
     /// The motion's acceleration computed by the numerical engine even when
     /// the closed form applies: the cross-check of the two engines.
     pub fn numeric_grid_into(

@@ -157,6 +157,36 @@ pub struct FileEffect {
     friction_factor: Option<Expr>,
     spring_factor: Option<Expr>,
     source: String,
+    /// [`ForceComponent::affine`], read off the expressions.
+    affine: bool,
+}
+
+/// Whether the rates and the extra force are affine in the coordinates
+/// (`u`, `v`, `travel` and the states) and the factors constant, with
+/// `t` read nowhere. The slots are [`MOTION_VARIABLES`], then the
+/// `n_params` parameters (constant), then the states.
+fn affine_in_phase(
+    n_params: usize,
+    rates: &[Expr],
+    extra: Option<&Expr>,
+    factors: [&Option<Expr>; 2],
+) -> bool {
+    use super::expr::Degree;
+    let motion = MOTION_VARIABLES.len();
+    let of_var = |i: usize| match MOTION_VARIABLES.get(i) {
+        Some(&"u" | &"v" | &"travel") => Degree::Affine,
+        Some(&"t") => Degree::Other,
+        Some(_) => Degree::Constant,
+        None if i < motion + n_params => Degree::Constant,
+        None => Degree::Affine,
+    };
+    let affine = |e: &Expr| e.degree(&of_var) <= Degree::Affine;
+    rates.iter().all(affine)
+        && extra.is_none_or(affine)
+        && factors.iter().all(|f| {
+            f.as_ref()
+                .is_none_or(|e| e.degree(&of_var) == Degree::Constant)
+        })
 }
 
 fn feature(name: &str) -> Option<FeatureKind> {
@@ -360,7 +390,14 @@ impl FileEffect {
                 )))
             }
         };
+        let affine = affine_in_phase(
+            params.len(),
+            &rates,
+            extra.as_ref(),
+            [&friction_factor, &spring_factor],
+        );
         Ok(Self {
+            affine,
             name: h.name.clone(),
             meaning: h.meaning.clone(),
             signature: h.signature.clone().unwrap_or_else(|| h.meaning.clone()),
@@ -429,6 +466,9 @@ impl ForceComponent for FileEffect {
     }
     fn piecewise_linear(&self) -> bool {
         false
+    }
+    fn affine(&self) -> bool {
+        self.affine
     }
     fn check(&self, theta: &[f64]) -> Result<(), ParamError> {
         for (p, v) in self.params.iter().zip(theta) {
@@ -523,6 +563,37 @@ mod tests {
 
     const MAXWELL: &str = include_str!("../../examples/effects/maxwell.toml");
     const HEATING: &str = include_str!("../../examples/effects/friction-heating.toml");
+
+    #[test]
+    fn a_linear_memory_term_is_affine_and_heating_is_not() {
+        let maxwell = FileEffect::from_toml(MAXWELL, "maxwell.toml").unwrap();
+        let heating = FileEffect::from_toml(HEATING, "heating.toml").unwrap();
+        assert!(maxwell.affine());
+        // `abs(v)` in the rate, a state in the friction's factor.
+        assert!(!heating.affine());
+        // Time, a product of coordinates, a factor that moves.
+        for (field, text) in [
+            ("extra", "r_mf * k0 * (u - q_mf) * t"),
+            ("extra", "r_mf * k0 * u * q_mf"),
+            ("spring_factor", "1 + r_mf * q_mf"),
+        ] {
+            let changed = MAXWELL.replace(
+                "extra = \"r_mf * k0 * (u - q_mf)\"",
+                &format!("{field} = \"{text}\""),
+            );
+            assert_ne!(changed, MAXWELL, "the file's force line changed");
+            let e = FileEffect::from_toml(&changed, "changed.toml").unwrap();
+            assert!(!e.affine(), "{field} = {text}");
+        }
+        // A constant factor keeps it affine.
+        let scaled = MAXWELL.replace(
+            "extra = \"r_mf * k0 * (u - q_mf)\"",
+            "extra = \"r_mf * k0 * (u - q_mf)\"\nspring_factor = \"1 + r_mf / 2\"",
+        );
+        assert!(FileEffect::from_toml(&scaled, "scaled.toml")
+            .unwrap()
+            .affine());
+    }
 
     #[test]
     fn the_example_maxwell_file_is_the_built_in_maxwell() {

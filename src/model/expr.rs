@@ -107,6 +107,18 @@ fn fuse(code: Vec<Op>) -> Vec<Op> {
     out
 }
 
+/// How an expression varies with variables that are constant, affine
+/// coordinates or anything else ([`Expr::degree`]), least first.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
+pub enum Degree {
+    /// The same value throughout.
+    Constant,
+    /// A constant plus constants times affine coordinates.
+    Affine,
+    /// Neither.
+    Other,
+}
+
 /// A compiled expression: postfix code over numbered variables, and the
 /// same code as nested closures that [`Expr::eval`] runs.
 #[derive(Clone)]
@@ -265,6 +277,73 @@ impl Expr {
         self.code
             .iter()
             .any(|op| matches!(op, Op::Var(j) | Op::AddV(j) | Op::SubV(j) | Op::MulV(j) | Op::DivV(j) if *j == i))
+    }
+
+    /// How it depends on the variables, given how each variable varies
+    /// (`of_var`): [`Degree::Constant`], [`Degree::Affine`] (a sum of the
+    /// affine variables times constants, plus a constant) or
+    /// [`Degree::Other`]. A product of two non-constant operands, a
+    /// division by one, a power or a function of one is `Other`, whatever
+    /// the values (`u * u` is not affine, even where `u` stays small).
+    ///
+    /// ```
+    /// use hbis::model::expr::{Degree, Expr};
+    ///
+    /// let of_var = |i: usize| [Degree::Affine, Degree::Constant][i];
+    /// let degree = |text: &str| Expr::compile(text, &["u", "c"]).unwrap().degree(&of_var);
+    /// assert_eq!(degree("c * (u - 2)"), Degree::Affine);
+    /// assert_eq!(degree("exp(c) * u + c^2 / 3"), Degree::Affine);
+    /// assert_eq!(degree("max(c, 1) / 3"), Degree::Constant);
+    /// assert_eq!(degree("u * u"), Degree::Other);
+    /// assert_eq!(degree("abs(u)"), Degree::Other);
+    /// assert_eq!(degree("c / u"), Degree::Other);
+    /// # Ok::<(), hbis::model::expr::ExprError>(())
+    /// ```
+    pub fn degree(&self, of_var: &dyn Fn(usize) -> Degree) -> Degree {
+        use Degree::{Affine, Constant, Other};
+        let mut st: Vec<Degree> = Vec::with_capacity(MAX_DEPTH);
+        let product = |a: Degree, b: Degree| match (a, b) {
+            (Other, _) | (_, Other) | (Affine, Affine) => Other,
+            (Constant, Constant) => Constant,
+            _ => Affine,
+        };
+        let quotient = |a: Degree, b: Degree| if b == Constant { a } else { Other };
+        let function = |a: Degree| if a == Constant { Constant } else { Other };
+        for op in &self.code {
+            let top = st.pop();
+            let d = match (*op, top) {
+                (Op::Num(_), _) | (Op::Var(_), _) => {
+                    st.extend(top);
+                    match *op {
+                        Op::Var(i) => of_var(i),
+                        _ => Constant,
+                    }
+                }
+                (_, None) => return Other,
+                (Op::Neg, Some(a)) => a,
+                (Op::F1(_) | Op::Abs | Op::Sgn, Some(a)) => function(a),
+                (Op::AddV(i) | Op::SubV(i), Some(a)) => a.max(of_var(i)),
+                (Op::MulV(i), Some(a)) => product(a, of_var(i)),
+                (Op::DivV(i), Some(a)) => quotient(a, of_var(i)),
+                (Op::AddN(_) | Op::SubN(_) | Op::MulN(_) | Op::DivN(_), Some(a)) => a,
+                (op, Some(b)) => {
+                    let Some(a) = st.pop() else {
+                        return Other;
+                    };
+                    match op {
+                        Op::Add | Op::Sub => a.max(b),
+                        Op::Mul => product(a, b),
+                        Op::Div => quotient(a, b),
+                        _ => function(a.max(b)),
+                    }
+                }
+            };
+            st.push(d);
+        }
+        match (st.pop(), st.is_empty()) {
+            (Some(d), true) => d,
+            _ => Other,
+        }
     }
 
     /// Its value with the variables `x` (in the order given to

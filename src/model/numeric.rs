@@ -42,7 +42,21 @@ use super::error::SimError;
 use super::forced::{Excitation, ForcedSink, Peaks};
 use super::simulate::{PhaseKind, System};
 use super::spring::{Spring, SpringBranch};
+use crate::numeric::affine::{exponential, solve_on_grid, AffineFlow, Grid, StepMap};
 use crate::numeric::ode::{Dopri5, Stop};
+
+/// `Phi(dt)` and `Psi(dt)` of one matrix ([`exponential`]).
+type StepMaps<const N: usize> = ([[f64; N]; N], [[f64; N]; N]);
+
+/// Whether two matrices of affine flows are the same to rounding (each
+/// read off a right-hand side, [`AffineFlow::from_rhs`]).
+fn close<const N: usize>(a: &[[f64; N]; N], b: &[[f64; N]; N]) -> bool {
+    let size = a.iter().flatten().fold(0.0f64, |m, x| m.max(x.abs()));
+    a.iter()
+        .flatten()
+        .zip(b.iter().flatten())
+        .all(|(x, y)| (x - y).abs() <= 1e-13 * size)
+}
 
 /// The forces within one phase, its spring line resolved once: the
 /// integrator evaluates them a few thousand times per record, and the
@@ -74,6 +88,9 @@ impl PhaseForces<'_, '_> {
     }
 }
 
+/// The adaptive integrator's relative tolerance on a release.
+pub const RTOL: f64 = 5e-9;
+
 /// Most kinks one model may declare (the solver locates 16 events).
 const MAX_KINKS: usize = 13;
 
@@ -92,6 +109,11 @@ pub struct NumericSystem<'a> {
     q: Quantities,
     /// Friction amplitude floored at zero (as under shaking).
     floored: bool,
+    /// The adaptive integrator on every phase, affine ones too (the
+    /// independent check of [`crate::numeric::affine`]).
+    adaptive: bool,
+    /// The adaptive integrator's relative tolerance.
+    rtol: f64,
 }
 
 impl<'a> NumericSystem<'a> {
@@ -115,7 +137,32 @@ impl<'a> NumericSystem<'a> {
             offsets,
             q,
             floored: false,
+            adaptive: false,
+            rtol: RTOL,
         }
+    }
+
+    /// The same system solved by the adaptive integrator on every phase
+    /// at relative tolerance `rtol`, also where each phase is affine and
+    /// solved exactly by default: the independent check of the exact flow.
+    pub fn adaptive(mut self, rtol: f64) -> Self {
+        self.adaptive = true;
+        self.rtol = rtol;
+        self
+    }
+
+    /// Whether each phase of a release is affine in the state, and solved
+    /// by its exact flow ([`ForceComponent::affine`]): the spring's branch,
+    /// the slider (on one side of `u = 0`) and the damper are, and so is
+    /// every component that says so and declares no kinks.
+    fn exact_phases(&self) -> bool {
+        let mut kinks = Vec::new();
+        !self.adaptive
+            && !self.floored
+            && self.terms.iter().all(|(c, theta)| {
+                c.kinks(theta, &mut kinks);
+                c.affine() && kinks.is_empty()
+            })
     }
 
     /// How many state variables the components carry.
@@ -310,12 +357,17 @@ impl<'a> NumericSystem<'a> {
         let mut last_dir = 1.0;
         let mut next = 0usize;
         let ode = Dopri5::new()
-            .with_rtol(5e-9)
+            .with_rtol(self.rtol)
             .and_then(|o| o.with_atol(1e-11))
             .and_then(|o| o.with_h_max(0.05))
             .expect("valid tolerances");
         let mut phases = 0;
         let mut h_carry: Option<f64> = None;
+        let exact = self.exact_phases();
+        // The step maps over `dt` met so far, by matrix: a record's phases
+        // take a few matrices in turn (one per spring branch and side).
+        let mut maps: Vec<([[f64; N]; N], StepMaps<N>)> = Vec::new();
+        let scale = u0.abs().max(1e-3);
         // Travel within a stretch of direction d that started at (u_s, s_s).
         let state = |y: &[f64; N], d: f64, u_s: f64, s_s: f64| Kinematics {
             u: y[0],
@@ -342,19 +394,19 @@ impl<'a> NumericSystem<'a> {
                     }
                     return Ok(());
                 }
-                let (restart, t_r) = self.held::<N>(
-                    (branch, u, s, last_dir),
-                    (t, t_end),
-                    &|_| 0.0,
-                    &mut x,
-                    ode,
-                    |ti_end| {
-                        while next < n && start + next as f64 * dt < ti_end {
-                            emit(next, rest);
-                            next += 1;
-                        }
-                    },
-                )?;
+                let grid = Grid { start, dt, next, n };
+                let reached = |ti_end| {
+                    while next < n && start + next as f64 * dt < ti_end {
+                        emit(next, rest);
+                        next += 1;
+                    }
+                };
+                let held = (branch, u, s, last_dir);
+                let (restart, t_r) = if exact {
+                    self.held_exact::<N>(held, (t, t_end), grid, &mut x, &mut maps, reached)?
+                } else {
+                    self.held::<N>(held, (t, t_end), &|_| 0.0, &mut x, ode, reached)?
+                };
                 t = t_r;
                 dir = restart;
                 h_carry = None;
@@ -385,6 +437,78 @@ impl<'a> NumericSystem<'a> {
                 }
             };
             let mut bad = None;
+            if exact {
+                // The flow of this phase, read off its right-hand side on
+                // the side of `u = 0` the phase moves on (the slider's law
+                // has a kink there).
+                let side = if u.abs() > 1e-12 * scale {
+                    u.signum()
+                } else {
+                    d
+                };
+                let mut y_ref = [0.0; N];
+                y_ref[0] = side * scale;
+                let flow = AffineFlow::from_rhs(|y| rhs(0.0, y), y_ref, [side * scale; N]);
+                let full = step_map(&mut maps, &flow, dt);
+                let v_start = if v * d < 0.0 { 0.0 } else { v };
+                let mut y0 = x;
+                [y0[0], y0[1]] = [u, v_start];
+                let grid = Grid { start, dt, next, n };
+                let sample = |i: usize, y: &[f64; N]| {
+                    let a = if accel { flow.rate(y)[1] } else { f64::NAN };
+                    if accel && !a.is_finite() {
+                        bad.get_or_insert(start + i as f64 * dt);
+                    }
+                    emit(
+                        i,
+                        Motion {
+                            u: y[0],
+                            v: y[1],
+                            a,
+                            phase: phase_of(sp, b),
+                        },
+                    );
+                };
+                let (outcome, reached) = solve_on_grid(
+                    &flow,
+                    &full,
+                    t,
+                    y0,
+                    t_end,
+                    grid,
+                    3 + kinks.len(),
+                    |y, g| events(0.0, y, g),
+                    sample,
+                )
+                .map_err(|_| nan.error(t, u))?;
+                next = reached;
+                if let Some(t) = bad {
+                    return Err(SimError::NotFinite { t });
+                }
+                (t, x) = (outcome.t, outcome.y);
+                [u, v] = [x[0], x[1]];
+                s = s_s + d * (u - u_s);
+                if !(u.is_finite() && v.is_finite()) || u.abs() > 1e6 * u0.abs().max(1e-3) {
+                    return Err(SimError::Diverged { t, u });
+                }
+                check_states(&x[2..], t)?;
+                match outcome.stop {
+                    Stop::End => break,
+                    Stop::Event { index: 0 } => {
+                        v = 0.0;
+                        branch = sp.unload(branch, u);
+                        dir = self.start_dir(branch, u, s, t, &x[2..]);
+                    }
+                    Stop::Event { index: 1 } => {
+                        if let Some((x, nb)) = target {
+                            u = x;
+                            branch = nb;
+                        }
+                    }
+                    Stop::Event { .. } => {}
+                }
+                continue;
+            }
             let observe = |step: &crate::numeric::ode::DenseStep<N>| {
                 while next < n {
                     let ti = start + next as f64 * dt;
@@ -550,6 +674,82 @@ impl<'a> NumericSystem<'a> {
             reached(f64::INFINITY);
         }
         Ok((restart, if restart.is_none() { t_end } else { out.t }))
+    }
+
+    /// [`held`](Self::held) of a release whose phases are affine
+    /// ([`exact_phases`](Self::exact_phases)), by the states' exact flow on
+    /// the sample grid `grid`: at rest the states' rates and the drive
+    /// are affine in the states, and the friction at `u` is constant.
+    fn held_exact<const N: usize>(
+        &self,
+        (branch, u, s, d): (SpringBranch, f64, f64, f64),
+        (t, t_end): (f64, f64),
+        grid: Grid,
+        x: &mut [f64; N],
+        maps: &mut Vec<([[f64; N]; N], StepMaps<N>)>,
+        mut reached: impl FnMut(f64),
+    ) -> Result<(Option<f64>, f64), SimError> {
+        let at = |dir: f64| Kinematics {
+            u,
+            v: 0.0,
+            dir,
+            travel: s,
+        };
+        let rhs = |y: &[f64; N]| {
+            let mut r = [0.0; N];
+            self.rates_into(&at(d), t, &y[2..], &mut r[2..]);
+            r
+        };
+        let events = |y: &[f64; N], g: &mut [f64]| {
+            let up = self.forces_at(branch, &at(1.0), t, &y[2..]);
+            let down = self.forces_at(branch, &at(-1.0), t, &y[2..]);
+            let drive = up.spring + up.extra;
+            g[0] = -drive - up.friction.abs();
+            g[1] = drive - down.friction.abs();
+        };
+        let mut g = [0.0; 2];
+        events(x, &mut g);
+        if let Some(k) = g.iter().position(|&gk| gk > 0.0) {
+            return Ok((Some(if k == 0 { 1.0 } else { -1.0 }), t));
+        }
+        let mut y0 = *x;
+        [y0[0], y0[1]] = [u, 0.0];
+        let scale = self.q.u0.abs().max(1e-3);
+        let flow = AffineFlow::from_rhs(rhs, y0, [scale; N]);
+        let full = step_map(maps, &flow, grid.dt);
+        let (out, _) = solve_on_grid(&flow, &full, t, y0, t_end, grid, 2, events, |_, _| {})
+            .map_err(|_| SimError::Diverged { t, u })?;
+        *x = out.y;
+        check_states(&x[2..], out.t)?;
+        let restart = match out.stop {
+            Stop::End => None,
+            Stop::Event { index: 0 } => Some(1.0),
+            Stop::Event { .. } => Some(-1.0),
+        };
+        reached(if restart.is_none() {
+            f64::INFINITY
+        } else {
+            out.t
+        });
+        Ok((restart, if restart.is_none() { t_end } else { out.t }))
+    }
+}
+
+/// The step map of `flow` over `dt`, from `maps` where its matrix is
+/// there (else computed and kept).
+fn step_map<const N: usize>(
+    maps: &mut Vec<([[f64; N]; N], StepMaps<N>)>,
+    flow: &AffineFlow<N>,
+    dt: f64,
+) -> StepMap<N> {
+    match maps.iter().find(|(a, _)| close(a, flow.matrix())) {
+        Some((_, m)) => flow.step_map_from(m),
+        None => {
+            let m = exponential(flow.matrix(), dt);
+            let full = flow.step_map_from(&m);
+            maps.push((*flow.matrix(), m));
+            full
+        }
     }
 }
 

@@ -75,6 +75,9 @@ impl ForceComponent for Maxwell {
     fn piecewise_linear(&self) -> bool {
         false
     }
+    fn affine(&self) -> bool {
+        true
+    }
     fn check(&self, theta: &[f64]) -> Result<(), ParamError> {
         let (r, tau) = (theta[0], theta[1]);
         if !(r >= 0.0 && r.is_finite()) {
