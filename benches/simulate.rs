@@ -120,9 +120,10 @@ fn forward_model(c: &mut Criterion) {
     });
 }
 
-/// The numerical engine (Dormand-Prince with event location) on the same
-/// record: Test 5 with velocity-dependent friction, and the closed-form
-/// model itself solved numerically. Criticism's refits of non-linear
+/// The numerical engine on the same record: Test 5 with velocity-dependent
+/// friction (Dormand-Prince with event location), and the closed-form
+/// model itself solved numerically (its phases are affine: their exact
+/// flow, `hbis::numeric::affine`). Criticism's refits of non-linear
 /// effects spend most of their time here.
 fn numeric_engine(c: &mut Criterion) {
     use hbis::model::{ForwardModel, Model};
@@ -150,7 +151,10 @@ fn numeric_engine(c: &mut Criterion) {
 
 /// A component with memory (a Maxwell element, one state) on a 12 s,
 /// 200 Hz record of Test 5, beside the closed form and the closed-form
-/// model solved numerically on the same grid.
+/// model solved numerically on the same grid (each phase's exact flow).
+/// The Maxwell element is affine: `exact_maxwell` is the same model on
+/// the exact flow, asked for (not the default with states,
+/// `NumericSystem::with_exact_memory`).
 fn memory_engine(c: &mut Criterion) {
     use hbis::model::{ForwardModel, Model, Registry};
     let p = Params::table_8_1(5).unwrap();
@@ -165,6 +169,13 @@ fn memory_engine(c: &mut Criterion) {
         b.iter(|| {
             maxwell
                 .accel_into(black_box(&theta), 0.005, &mut out)
+                .unwrap()
+        })
+    });
+    c.bench_function("exact_maxwell_test5_2401", |b| {
+        b.iter(|| {
+            maxwell
+                .exact_grid_into(black_box(&theta), (0.0, 0.005), &mut out)
                 .unwrap()
         })
     });

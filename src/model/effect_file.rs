@@ -157,7 +157,7 @@ pub struct FileEffect {
     friction_factor: Option<Expr>,
     spring_factor: Option<Expr>,
     source: String,
-    /// [`ForceComponent::affine`], read off the expressions.
+    /// [`FileEffect::affine_in_phase`], read off the expressions.
     affine: bool,
 }
 
@@ -418,6 +418,17 @@ impl FileEffect {
         })
     }
 
+    /// Whether its rates and extra force are affine in `u`, `v`, the travel
+    /// and its states, its factors constant and `t` unread: what
+    /// [`ForceComponent::affine`] asks. The engine does not take it from
+    /// an effect file yet (the trait's default, no): on the exact flow the
+    /// missing form's memory search, which fits effect files, ended
+    /// elsewhere on two records of `tests/it/missing_form.rs` (a time
+    /// constant of 0.71 s for a truth of 0.57 s; docs/components.md).
+    pub fn affine_in_phase(&self) -> bool {
+        self.affine
+    }
+
     /// The file it was read from.
     pub fn source(&self) -> &str {
         &self.source
@@ -467,9 +478,7 @@ impl ForceComponent for FileEffect {
     fn piecewise_linear(&self) -> bool {
         false
     }
-    fn affine(&self) -> bool {
-        self.affine
-    }
+
     fn check(&self, theta: &[f64]) -> Result<(), ParamError> {
         for (p, v) in self.params.iter().zip(theta) {
             if !v.is_finite() {
@@ -568,9 +577,9 @@ mod tests {
     fn a_linear_memory_term_is_affine_and_heating_is_not() {
         let maxwell = FileEffect::from_toml(MAXWELL, "maxwell.toml").unwrap();
         let heating = FileEffect::from_toml(HEATING, "heating.toml").unwrap();
-        assert!(maxwell.affine());
+        assert!(maxwell.affine_in_phase());
         // `abs(v)` in the rate, a state in the friction's factor.
-        assert!(!heating.affine());
+        assert!(!heating.affine_in_phase());
         // Time, a product of coordinates, a factor that moves.
         for (field, text) in [
             ("extra", "r_mf * k0 * (u - q_mf) * t"),
@@ -583,7 +592,7 @@ mod tests {
             );
             assert_ne!(changed, MAXWELL, "the file's force line changed");
             let e = FileEffect::from_toml(&changed, "changed.toml").unwrap();
-            assert!(!e.affine(), "{field} = {text}");
+            assert!(!e.affine_in_phase(), "{field} = {text}");
         }
         // A constant factor keeps it affine.
         let scaled = MAXWELL.replace(
@@ -592,7 +601,9 @@ mod tests {
         );
         assert!(FileEffect::from_toml(&scaled, "scaled.toml")
             .unwrap()
-            .affine());
+            .affine_in_phase());
+        // The engine keeps effect files on Dormand-Prince for now.
+        assert!(!ForceComponent::affine(&maxwell));
     }
 
     #[test]

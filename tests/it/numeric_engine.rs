@@ -146,102 +146,56 @@ fn the_exact_flow_is_the_closed_form_to_rounding() {
     assert!(worst_adaptive < 1e-6, "{worst_adaptive:.2e}");
 }
 
-/// With memory (a Maxwell element, and the same force as an effect file)
-/// the exact flow against the adaptive integrator, the independent
-/// integration: motion and rests alike, a restart from rest included.
+/// With memory (a Maxwell element) the exact flow (asked for: not the
+/// default with states, `NumericSystem::with_exact_memory`) against the
+/// adaptive integrator, the independent integration: motion and rests
+/// alike (dropping the memory force from the drive at rest failed here).
 #[test]
 fn the_exact_flow_with_memory_matches_the_adaptive_integrator() {
-    use hbis::model::effect_file::FileEffect;
     use hbis::model::{Params, Registry};
-    let memory = FileEffect::from_toml(
-        r#"
-[effect]
-name = "memory"
-meaning = "a Maxwell element as an effect file"
-[[param]]
-name = "c_1"
-unit = "-"
-bounds = [0, 1]
-neutral = 0
-meaning = "stiffness over the rubber's"
-[[param]]
-name = "tau_mem"
-unit = "s"
-bounds = [0.05, 3]
-neutral = 0.4
-meaning = "relaxation time"
-[[state]]
-name = "q_mem"
-unit = "m"
-meaning = "dashpot displacement"
-release = "u0"
-rate = "(u - q_mem) / tau_mem"
-[force]
-extra = "c_1 * k0 * (u - q_mem)"
-"#,
-        "memory.toml",
-    )
-    .unwrap();
     let registry = Registry::builtin();
     let (mut worst, mut samples) = (0.0f64, 0usize);
     for (table_row, r, tau) in [(5, 0.1, 0.4), (3, 0.6, 0.06), (5, 0.5, 1.5), (7, 0.3, 0.15)] {
         let p = Params::table_8_1(table_row).unwrap();
         for spec in ["bilinear+coulomb", "trilinear+lcfm+viscous"] {
-            let base = registry.parse(spec).unwrap();
-            let file = base.with_force(std::sync::Arc::new(memory.clone()));
-            let maxwell = registry.parse(&format!("{spec}+maxwell")).unwrap();
-            let models = [
-                (
-                    &file,
-                    file.theta_from_params(&p, &[("c_1", r), ("tau_mem", tau)]),
-                ),
-                (
-                    &maxwell,
-                    maxwell.theta_from_params(&p, &[("r_m", r), ("tau_m", tau)]),
-                ),
-            ];
-            for (model, theta) in models {
-                let theta = theta.unwrap();
-                let n = 2401;
-                let (mut exact, mut adaptive) = (vec![0.0; n], vec![0.0; n]);
-                model
-                    .numeric_grid_into(&theta, 0.0, 0.005, &mut exact)
-                    .unwrap();
-                // The independent integration, a thousand times tighter than
-                // the engine's own tolerance. Tighter still it does not come
-                // closer: on Test 5's row with `r_m` 0.1, `tau_m` 0.4 its
-                // largest difference from the exact flow was 1.1e-9 to
-                // 4.6e-9 at tolerances from 5e-11 to 5e-14 (its own
-                // rounding), 3.2e-8 at the engine's 5e-9 (2026-12-03).
-                model
-                    .adaptive_grid_into(&theta, (0.0, 0.005), RTOL * 1e-3, &mut adaptive)
-                    .unwrap();
-                // Samples next to a jump may fall on either side of it: the
-                // mode (at rest, where the engines report exactly zero, or
-                // sliding in a direction) must be the same at i - 1, i, i + 1
-                // in both.
-                let motion = model.motion_grid(&theta, 0.0, 0.005, n).unwrap();
-                let mode = |i: usize| motion[i].v.signum() * f64::from(motion[i].v != 0.0);
-                let moving = |a: &[f64], i: usize| a[i] != 0.0;
-                for i in 1..n - 1 {
-                    let steady = mode(i - 1) == mode(i) && mode(i) == mode(i + 1);
-                    let alike = (i - 1..=i + 1).all(|j| moving(&adaptive, j) == moving(&exact, j));
-                    if !(steady && alike) {
-                        continue;
-                    }
-                    let err = (exact[i] - adaptive[i]).abs() / (1.0 + adaptive[i].abs());
-                    assert!(
-                        err < 1e-8,
-                        "{spec} row {table_row} r {r} tau {tau} at {i}: {err:.2e}"
-                    );
-                    worst = worst.max(err);
-                    samples += 1;
+            let model = registry.parse(&format!("{spec}+maxwell")).unwrap();
+            let theta = model
+                .theta_from_params(&p, &[("r_m", r), ("tau_m", tau)])
+                .unwrap();
+            let n = 2401;
+            let (mut exact, mut adaptive) = (vec![0.0; n], vec![0.0; n]);
+            model
+                .exact_grid_into(&theta, (0.0, 0.005), &mut exact)
+                .unwrap();
+            // The independent integration, a thousand times tighter than
+            // the engine's own tolerance. Tighter still it does not come
+            // closer: on Test 5's row with `r_m` 0.1, `tau_m` 0.4 its
+            // largest difference from the exact flow was 1.1e-9 to 4.6e-9
+            // at tolerances from 5e-11 to 5e-14 (its own rounding), 3.2e-8
+            // at the engine's 5e-9 (2026-12-03).
+            model
+                .adaptive_grid_into(&theta, (0.0, 0.005), RTOL * 1e-3, &mut adaptive)
+                .unwrap();
+            // Samples next to a jump may fall on either side of it: the
+            // mode (at rest, where both report exactly zero, or moving)
+            // must be the same at i - 1, i, i + 1 in both.
+            let moving = |a: &[f64], i: usize| a[i] != 0.0;
+            for i in 1..n - 1 {
+                if !(i - 1..=i + 1).all(|j| moving(&adaptive, j) == moving(&exact, j)) {
+                    continue;
                 }
+                let err = (exact[i] - adaptive[i]).abs() / (1.0 + adaptive[i].abs());
+                assert!(
+                    err < 1e-8,
+                    "{spec} row {table_row} r {r} tau {tau} at {i}: {err:.2e}"
+                );
+                worst = worst.max(err);
+                samples += 1;
             }
         }
     }
     eprintln!("exact flow vs adaptive integrator with memory: {samples} samples, worst relative difference {worst:.2e}");
-    assert!(samples > 30_000, "{samples}");
+    assert!(samples > 15_000, "{samples}");
 }
 
 /// A component that is not affine (velocity-dependent friction) keeps
