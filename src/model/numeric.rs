@@ -456,7 +456,11 @@ impl<'a> NumericSystem<'a> {
                 }
             };
             let mut bad = None;
-            if exact {
+            // A phase that starts exactly on its kink must not stop at once.
+            let v_start = if v * d < 0.0 { 0.0 } else { v };
+            let mut y0 = x;
+            [y0[0], y0[1]] = [u, v_start];
+            let outcome = if exact {
                 // The flow of this phase, read off its right-hand side on
                 // the side of `u = 0` the phase moves on (the slider's law
                 // has a kink there).
@@ -469,9 +473,6 @@ impl<'a> NumericSystem<'a> {
                 y_ref[0] = side * scale;
                 let flow = AffineFlow::from_rhs(|y| rhs(0.0, y), y_ref, [side * scale; N]);
                 let full = step_map(&mut maps, &flow, dt);
-                let v_start = if v * d < 0.0 { 0.0 } else { v };
-                let mut y0 = x;
-                [y0[0], y0[1]] = [u, v_start];
                 let grid = Grid { start, dt, next, n };
                 let sample = |i: usize, y: &[f64; N]| {
                     let a = if accel { flow.rate(y)[1] } else { f64::NAN };
@@ -501,75 +502,46 @@ impl<'a> NumericSystem<'a> {
                 )
                 .map_err(|_| nan.error(t, u))?;
                 next = reached;
-                if let Some(t) = bad {
-                    return Err(SimError::NotFinite { t });
-                }
-                (t, x) = (outcome.t, outcome.y);
-                [u, v] = [x[0], x[1]];
-                s = s_s + d * (u - u_s);
-                if !(u.is_finite() && v.is_finite()) || u.abs() > 1e6 * u0.abs().max(1e-3) {
-                    return Err(SimError::Diverged { t, u });
-                }
-                check_states(&x[2..], t)?;
-                match outcome.stop {
-                    Stop::End => break,
-                    Stop::Event { index: 0 } => {
-                        v = 0.0;
-                        branch = sp.unload(branch, u);
-                        dir = self.start_dir(branch, u, s, t, &x[2..]);
-                    }
-                    Stop::Event { index: 1 } => {
-                        if let Some((x, nb)) = target {
-                            u = x;
-                            branch = nb;
+                outcome
+            } else {
+                let observe = |step: &crate::numeric::ode::DenseStep<N>| {
+                    while next < n {
+                        let ti = start + next as f64 * dt;
+                        // A sample exactly at an event belongs to the phase
+                        // after it, as in the closed form (the last step ends
+                        // half a step past the last sample).
+                        if ti >= step.t_end() {
+                            break;
                         }
+                        let tc = ti.max(step.t_start());
+                        let y = step.eval(tc);
+                        let a = if accel {
+                            law.at(&state(&y, d, u_s, s_s), tc, &y[2..]).accel()
+                        } else {
+                            f64::NAN
+                        };
+                        if accel && !a.is_finite() {
+                            bad.get_or_insert(ti);
+                        }
+                        emit(
+                            next,
+                            Motion {
+                                u: y[0],
+                                v: y[1],
+                                a,
+                                phase: phase_of(sp, b),
+                            },
+                        );
+                        next += 1;
                     }
-                    Stop::Event { .. } => {}
-                }
-                continue;
-            }
-            let observe = |step: &crate::numeric::ode::DenseStep<N>| {
-                while next < n {
-                    let ti = start + next as f64 * dt;
-                    // A sample exactly at an event belongs to the phase
-                    // after it, as in the closed form (the last step ends
-                    // half a step past the last sample).
-                    if ti >= step.t_end() {
-                        break;
-                    }
-                    let tc = ti.max(step.t_start());
-                    let y = step.eval(tc);
-                    let a = if accel {
-                        law.at(&state(&y, d, u_s, s_s), tc, &y[2..]).accel()
-                    } else {
-                        f64::NAN
-                    };
-                    if accel && !a.is_finite() {
-                        bad.get_or_insert(ti);
-                    }
-                    emit(
-                        next,
-                        Motion {
-                            u: y[0],
-                            v: y[1],
-                            a,
-                            phase: phase_of(sp, b),
-                        },
-                    );
-                    next += 1;
-                }
+                };
+                // The step the last phase ended with suits the next one (the
+                // motion's time scale does not change at an event), and saves
+                // the start-up steps.
+                let ode = h_carry.map_or(ode, |h| ode.with_h_init(h).unwrap_or(ode));
+                ode.solve(rhs, t, y0, t_end, 3 + kinks.len(), events, observe)
+                    .map_err(|_| nan.error(t, u))?
             };
-            // A phase that starts exactly on its kink must not stop at once.
-            let v_start = if v * d < 0.0 { 0.0 } else { v };
-            let mut y0 = x;
-            [y0[0], y0[1]] = [u, v_start];
-            // The step the last phase ended with suits the next one (the
-            // motion's time scale does not change at an event), and saves
-            // the start-up steps.
-            let ode = h_carry.map_or(ode, |h| ode.with_h_init(h).unwrap_or(ode));
-            let outcome = ode
-                .solve(rhs, t, y0, t_end, 3 + kinks.len(), events, observe)
-                .map_err(|_| nan.error(t, u))?;
             if let Some(t) = bad {
                 return Err(SimError::NotFinite { t });
             }
