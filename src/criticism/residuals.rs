@@ -18,7 +18,8 @@
 //! # Formula
 //! ```text
 //! Ljung-Box: Q = n (n + 2) sum_(k=1..h) rho_k^2 / (n - k),  p = P(chi2_h > Q)
-//! jump at a reversal (velocity changes sign between samples i-1 and i):
+//! jump at a reversal (velocity changes sign between samples i-1 and i;
+//! i-1 where that sample lies on the reversal, `reversals`):
 //!   line through a[i+2..=i+6] minus line through a[i-6..=i-2], both at
 //!   i - 1/2   (the model at its reversal i; the record at its own break
 //!   c, |c - i| <= 4, where two lines split a[i-10..=i+10] best, when
@@ -221,16 +222,7 @@ pub fn diagnose(
     }
     let mean_at_rest = by_phase.iter().find(|g| g.group == "rest").map(|g| g.mean);
     // Half-cycles and reversals (velocity sign changes of the model).
-    let mut rev: Vec<usize> = Vec::new();
-    for i in 1..samples.len() {
-        if samples[i - 1].v * samples[i].v < 0.0
-            || (samples[i - 1].v != 0.0
-                && samples[i].v == 0.0
-                && samples[i].phase.as_str() == "rest")
-        {
-            rev.push(i);
-        }
-    }
+    let rev = reversals(samples, dt);
     let mut bounds = vec![0usize];
     bounds.extend(&rev);
     bounds.push(samples.len());
@@ -496,6 +488,48 @@ fn record_break(a: &[f64], i: usize, sd: f64) -> usize {
     }
 }
 
+/// Within this many sample intervals of its reversal (by its own velocity
+/// and acceleration), a sample is taken to lie on it.
+const ON_REVERSAL: f64 = 1e-6;
+
+/// The reversals of `samples` (every `dt`): for each change of the sign of
+/// the velocity, the first sample with the new sign, or the sample before
+/// it where that one lies on the reversal; and each stop for good, its
+/// first sample at rest. A restart from rest is no reversal.
+///
+/// A fit's reversals sit on sample instants to about 1e-13 s (the
+/// likelihood's staircase steps there), where rounding in the engine
+/// decides on which side the sample's velocity falls. Counted as the
+/// first of the new sign either way, the sample no longer moves the
+/// reversal, and with it the jumps' lines, by one sample: in session 18 it
+/// moved the jump-size z of a calibration record across its gate.
+fn reversals(samples: &[Motion], dt: f64) -> Vec<usize> {
+    let on_reversal = |s: &Motion| s.v.abs() <= ON_REVERSAL * s.a.abs() * dt;
+    let mut rev = Vec::new();
+    // The velocity of the last moving sample since the last stop.
+    let mut last: Option<f64> = None;
+    for (i, s) in samples.iter().enumerate() {
+        if s.v == 0.0 {
+            if s.phase.as_str() == "rest" {
+                if i > 0 && samples[i - 1].v != 0.0 {
+                    rev.push(i);
+                }
+                last = None;
+            }
+            continue;
+        }
+        if last.is_some_and(|lv| lv * s.v < 0.0) {
+            rev.push(if on_reversal(&samples[i - 1]) {
+                i - 1
+            } else {
+                i
+            });
+        }
+        last = Some(s.v);
+    }
+    rev
+}
+
 /// Residual sum of squares of the least-squares line through `a[lo..=hi]`.
 fn line_sse(a: &[f64], lo: usize, hi: usize) -> f64 {
     let n = (hi + 1 - lo) as f64;
@@ -655,4 +689,56 @@ pub fn autocorrelation(x: &[f64], k: usize) -> f64 {
         .map(|i| (x[i] - mean) * (x[i - k] - mean))
         .sum::<f64>()
         / c0
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::PhaseKind;
+
+    /// A reversal at sample 50 of 100: velocity `c (50 - k) dt` before,
+    /// `-2 c (k - 50) dt` after, with sample 50's velocity `v50`.
+    fn motion(v50: f64) -> Vec<Motion> {
+        let (c, dt) = (0.8, 0.005);
+        (0..100)
+            .map(|k| {
+                let x = (k as f64 - 50.0) * dt;
+                let (v, a) = match k.cmp(&50) {
+                    std::cmp::Ordering::Less => (-c * x, -c),
+                    std::cmp::Ordering::Equal => (v50, if v50 > 0.0 { -c } else { -2.0 * c }),
+                    std::cmp::Ordering::Greater => (-2.0 * c * x, -2.0 * c),
+                };
+                Motion {
+                    u: 0.01,
+                    v,
+                    a,
+                    phase: PhaseKind::Elastic,
+                }
+            })
+            .collect()
+    }
+
+    #[test]
+    fn a_sample_on_its_reversal_is_the_first_after_it_on_either_side() {
+        let dt = 0.005;
+        for tiny in [1e-15, 1e-12, 0.0] {
+            assert_eq!(reversals(&motion(tiny), dt), [50], "{tiny}");
+            assert_eq!(reversals(&motion(-tiny), dt), [50], "{tiny}");
+        }
+        // A sample a thousandth of an interval before it is not on it.
+        assert_eq!(reversals(&motion(0.8 * 1e-3 * dt), dt), [51]);
+    }
+
+    #[test]
+    fn a_stop_is_a_reversal_and_the_restart_is_not() {
+        let mut m = motion(-1e-3);
+        for s in &mut m[60..70] {
+            s.v = 0.0;
+            s.phase = PhaseKind::Rest;
+        }
+        for s in &mut m[70..] {
+            s.v = 0.01;
+        }
+        assert_eq!(reversals(&m, 0.005), [50, 60]);
+    }
 }
