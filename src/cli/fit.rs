@@ -262,7 +262,12 @@ pub fn run(a: Args) -> Result<()> {
     if let Some(s) = &fit.second_search {
         writeln!(
             err,
-            "  the first search's residual was structured: a second search from new starts reached log-posterior {:.3} against {:.3} ({} evaluations); {} kept",
+            "  the first search's {}: a second search from new starts reached log-posterior {:.3} against {:.3} ({} evaluations); {} kept",
+            if s.reason == hbis::study::STRUCTURED {
+                "residual was structured"
+            } else {
+                "runs never ended twice in its best basin"
+            },
             s.second_log_posterior,
             s.first_log_posterior,
             s.evaluations,

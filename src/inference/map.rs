@@ -472,10 +472,17 @@ pub fn found_twice(ends: &[RunEnd], start_lp: Option<f64>) -> bool {
 /// residual is structured ([`crate::criticism::sanity::structured_residual`]):
 /// such a MAP is often a local basin. On the 62 records of
 /// `examples/map_robustness.rs`, 8 were searched twice; the second search
-/// was higher on 7 and reached the noise floor on 3. The better of the two
+/// was higher on 7 and reached the noise floor on 3. It also runs where
+/// the first search's runs never ended twice in its best basin
+/// ([`MapEstimate::best_repeated`]): nothing corroborates that MAP (a
+/// Maxwell record's fit with the memory term of its missing form, eleven
+/// parameters, ended at `e2` 1.047 of the noise floor after 16 runs and
+/// its whole budget, `tests/it/missing_form.rs`). The better of the two
 /// is kept.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub struct SecondSearch {
+    /// Why it ran: `structured residual` or `best not found twice`.
+    pub reason: &'static str,
     /// Log-posterior of the first search's MAP.
     pub first_log_posterior: f64,
     /// Log-posterior of the second search's MAP.

@@ -148,6 +148,12 @@ impl Fit {
 
 pub use crate::inference::map::SecondSearch;
 
+/// [`SecondSearch::reason`]: the first MAP's residual was structured.
+pub const STRUCTURED: &str = "structured residual";
+/// [`SecondSearch::reason`]: the first search's runs never ended twice in
+/// its best basin ([`crate::inference::MapEstimate::best_repeated`]).
+pub const NOT_REPEATED: &str = "best not found twice";
+
 /// Fits `data` with `model`: MAP, then (if asked) the posterior and its
 /// reports. `priors = None` uses the defaults the model's components
 /// declare.
@@ -176,7 +182,12 @@ pub fn fit_record(
     )?;
     let structured = crate::criticism::sanity::structured_at(&fit.posterior, &fit.map.theta);
     let mut ends = fit.map.ends.clone();
-    let second_search = if structured.is_some() {
+    let reason = if structured.is_some() {
+        Some(STRUCTURED)
+    } else {
+        (fit.map.best_repeated == Some(false)).then_some(NOT_REPEATED)
+    };
+    let second_search = if let Some(reason) = reason {
         let again = fit_map(
             model.clone(),
             fit.posterior.data().clone(),
@@ -188,6 +199,7 @@ pub fn fit_record(
         )?;
         let (first, second) = (fit.map.eval.log_posterior, again.map.eval.log_posterior);
         let s = SecondSearch {
+            reason,
             first_log_posterior: first,
             second_log_posterior: second,
             evaluations: again.map.evaluations(),
