@@ -152,9 +152,8 @@ fn numeric_engine(c: &mut Criterion) {
 /// A component with memory (a Maxwell element, one state) on a 12 s,
 /// 200 Hz record of Test 5, beside the closed form and the closed-form
 /// model solved numerically on the same grid (each phase's exact flow).
-/// The Maxwell element is affine: `exact_maxwell` is the same model on
-/// the exact flow, asked for (not the default with states,
-/// `NumericSystem::with_exact_memory`).
+/// The Maxwell element is affine: the engine solves it by the exact flow
+/// too (the default with states since 2026-12-04).
 fn memory_engine(c: &mut Criterion) {
     use hbis::model::{ForwardModel, Model, Registry};
     let p = Params::table_8_1(5).unwrap();
@@ -169,13 +168,6 @@ fn memory_engine(c: &mut Criterion) {
         b.iter(|| {
             maxwell
                 .accel_into(black_box(&theta), 0.005, &mut out)
-                .unwrap()
-        })
-    });
-    c.bench_function("exact_maxwell_test5_2401", |b| {
-        b.iter(|| {
-            maxwell
-                .exact_grid_into(black_box(&theta), (0.0, 0.005), &mut out)
                 .unwrap()
         })
     });

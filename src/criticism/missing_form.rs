@@ -224,7 +224,8 @@ impl MissingForm {
     /// the noise floor) for a truth of 0.53 s (docs/criticism.md). Its
     /// `share` stays the form's.
     ///
-    /// Beside those local refits, one global search (`memory_global`)
+    /// Beside those local refits, a global search (`memory_global`, the
+    /// best of three)
     /// fits the model with a memory term alone from its whole prior: the
     /// model's own parameters, fitted without the force, sit in a basin
     /// that a local refit does not leave (on a record of
@@ -425,14 +426,30 @@ const REFIT_SEED: u64 = 0x3155_F0E3;
 /// two cores, four seeds of four) and no better with 120,000.
 pub const GLOBAL_BUDGET: usize = 60_000;
 
-/// The model with a memory term alone, fitted by a global search over its
-/// whole prior ([`GLOBAL_BUDGET`] evaluations). As in the built-in
+/// Seeds (mixed into the refit seed) of [`memory_global`]'s independent
+/// searches, the best kept. One search depended on luck: on the record of
+/// `MissingForm::memory_starts` a change of 1e-8 relative in the model's
+/// acceleration (the exact flow in place of the adaptive integrator)
+/// moved its end from 0.55 s to 1.52 s, for a truth of 0.567 s. With
+/// three, on the exact flow, both global-search records of
+/// `tests/it/missing_form.rs` end within 30 % of the truth (2026-12-04).
+const GLOBAL_SEEDS: [u64; 3] = [4, 5, 6];
+
+/// The time constants (s) [`memory_global`] searches: two decades and
+/// more, so that the search runs on a log scale
+/// ([`crate::inference::find_map`]); on the library's [`TAU_RANGE`] it
+/// ran on a linear one, where 0.2 s lies in the bottom 3 %.
+const GLOBAL_TAU_RANGE: (f64, f64) = (0.025, 3.0);
+
+/// The model with a memory term alone, fitted by [`GLOBAL_SEEDS`]'
+/// global searches over its whole prior ([`GLOBAL_BUDGET`] evaluations
+/// each), the best kept. As in the built-in
 /// `maxwell`, the search's coefficient is the Maxwell spring's stiffness
 /// over the rubber's, `k0`, from 0 to 1, so that it moves with the
 /// spring's as the search moves `f0` (with an absolute coefficient from 0
 /// to `k0`, the search ended 180 nats below the truth's refit on the
-/// record of `MissingForm::memory_starts`); the time constant spans the
-/// library's range ([`TAU_RANGE`]). The term is reported with its
+/// record of `MissingForm::memory_starts`); the time constant spans
+/// [`GLOBAL_TAU_RANGE`]. The term is reported with its
 /// absolute coefficient at the refit's `k0`, the same force. `memory`
 /// gives the term its share; without it the share is what the refit
 /// explains of the residual's variance, `1 - e2_with / e2`. With the
@@ -461,7 +478,7 @@ fn memory_global(
     let text = effect_file_within(
         &[&relative],
         std::slice::from_ref(&term),
-        Some(((0.0, 1.0), TAU_RANGE)),
+        Some(((0.0, 1.0), GLOBAL_TAU_RANGE)),
     );
     let Ok(effect) = FileEffect::from_toml(&text, "missing-form") else {
         return Ok(None);
@@ -469,7 +486,11 @@ fn memory_global(
     let alone = model.with_force(std::sync::Arc::new(effect));
     let global = settings.clone().with_max_evals(GLOBAL_BUDGET)?;
     // A cancelled search is caught by the caller's check.
-    let Ok(r) = fit_model(&alone, data, fit.noise, None, &global, REFIT_SEED ^ 4) else {
+    let Some(r) = GLOBAL_SEEDS
+        .par_iter()
+        .filter_map(|&s| fit_model(&alone, data, fit.noise, None, &global, REFIT_SEED ^ s).ok())
+        .min_by(|a, b| a.bic.total_cmp(&b.bic))
+    else {
         return Ok(None);
     };
     let Some(f0) = alone.layout().get(r.model_theta(&alone), "f0") else {

@@ -571,8 +571,7 @@ fn starts(c: &Candidate, new: &[usize], spread: &[f64], data: &Aligned) -> Vec<V
     let at = |f: f64| {
         let mut s = c.start.clone();
         for &k in new {
-            let (lo, hi) = bounds[k];
-            s[k] = lo + f * (hi - lo);
+            s[k] = fraction_of(bounds[k], f);
         }
         s
     };
@@ -603,6 +602,23 @@ fn starts(c: &Candidate, new: &[usize], spread: &[f64], data: &Aligned) -> Vec<V
         out.push(chosen);
     }
     out
+}
+
+/// The point at fraction `f` of the range `(lo, hi)`: on a log scale
+/// where the range spans two decades or more from a positive bound, as
+/// [`crate::inference::find_map`] searches it. Mid-range on a linear
+/// scale, the example effect file's Maxwell time constant (0.02-5 s)
+/// started at 2.5 s; on a record with 0.3 s the ladder's refit of
+/// `maxwell-file` from there and from the warm start fell short of the
+/// missing form's memory term of 0.306 s (BIC -63.7), and the ladder
+/// refused it as a stand-in for that term (2026-12-04, on the exact flow,
+/// `memory_fit::the_ladder_adds_the_maxwell_effect_file`).
+fn fraction_of((lo, hi): (f64, f64), f: f64) -> f64 {
+    if lo > 0.0 && hi >= 100.0 * lo {
+        lo * (hi / lo).powf(f)
+    } else {
+        lo + f * (hi - lo)
+    }
 }
 
 fn rms_diff(a: &[f64], b: &[f64]) -> f64 {

@@ -394,22 +394,6 @@ impl Model {
             .collect()
     }
 
-    /// The motion's acceleration by the numerical engine with the exact
-    /// flow for affine components with states too
-    /// ([`NumericSystem::with_exact_memory`], not the default).
-    pub fn exact_grid_into(
-        &self,
-        theta: &[f64],
-        (start, dt): (f64, f64),
-        out: &mut [f64],
-    ) -> Result<(), SimError> {
-        let system = self.system(theta)?;
-        let terms = self.numeric_terms(theta);
-        NumericSystem::with_terms(system, &terms)
-            .with_exact_memory()
-            .accel_grid_into(start, dt, out)
-    }
-
     /// The motion's acceleration computed by the numerical engine's
     /// adaptive integrator at relative tolerance `rtol` on every phase,
     /// also where the engine solves a phase by its exact flow

@@ -420,11 +420,8 @@ impl FileEffect {
 
     /// Whether its rates and extra force are affine in `u`, `v`, the travel
     /// and its states, its factors constant and `t` unread: what
-    /// [`ForceComponent::affine`] asks. The engine does not take it from
-    /// an effect file yet (the trait's default, no): on the exact flow the
-    /// missing form's memory search, which fits effect files, ended
-    /// elsewhere on two records of `tests/it/missing_form.rs` (a time
-    /// constant of 0.71 s for a truth of 0.57 s; docs/components.md).
+    /// [`ForceComponent::affine`] asks, and what the file's component
+    /// answers it with (since 2026-12-04; docs/components.md).
     pub fn affine_in_phase(&self) -> bool {
         self.affine
     }
@@ -477,6 +474,9 @@ impl ForceComponent for FileEffect {
     }
     fn piecewise_linear(&self) -> bool {
         false
+    }
+    fn affine(&self) -> bool {
+        self.affine
     }
 
     fn check(&self, theta: &[f64]) -> Result<(), ParamError> {
@@ -602,8 +602,8 @@ mod tests {
         assert!(FileEffect::from_toml(&scaled, "scaled.toml")
             .unwrap()
             .affine_in_phase());
-        // The engine keeps effect files on Dormand-Prince for now.
-        assert!(!ForceComponent::affine(&maxwell));
+        // The engine solves such a file by the exact flow (2026-12-04).
+        assert!(ForceComponent::affine(&maxwell));
     }
 
     #[test]

@@ -114,9 +114,6 @@ pub struct NumericSystem<'a> {
     adaptive: bool,
     /// The adaptive integrator's relative tolerance.
     rtol: f64,
-    /// The exact flow for affine components with states too
-    /// ([`with_exact_memory`](Self::with_exact_memory)).
-    exact_memory: bool,
 }
 
 impl<'a> NumericSystem<'a> {
@@ -142,21 +139,7 @@ impl<'a> NumericSystem<'a> {
             floored: false,
             adaptive: false,
             rtol: RTOL,
-            exact_memory: false,
         }
-    }
-
-    /// The same system with the exact flow for affine components that
-    /// carry states (a Maxwell element) too. Not the default: on the exact
-    /// flow a record of `examples/memory_records` simulated with `maxwell`
-    /// changes at 1e-8 relative, and the missing form's global memory
-    /// search on it ended at a time constant of 0.71 s (BIC 203 above the
-    /// 0.55 s it finds from the adaptive integrator's record), for a truth
-    /// of 0.57 s (`missing_form::a_memory_term_alone_from_a_global_search_*`,
-    /// 2026-12-03): that search, not the flow, is what needs fixing first.
-    pub fn with_exact_memory(mut self) -> Self {
-        self.exact_memory = true;
-        self
     }
 
     /// The same system solved by the adaptive integrator on every phase
@@ -171,12 +154,11 @@ impl<'a> NumericSystem<'a> {
     /// Whether each phase of a release is affine in the state, and solved
     /// by its exact flow ([`ForceComponent::affine`]): the spring's branch,
     /// the slider (on one side of `u = 0`) and the damper are, and so is
-    /// every component that says so and declares no kinks; components with
-    /// states only with [`with_exact_memory`](Self::with_exact_memory).
+    /// every component that says so and declares no kinks, with states
+    /// (a Maxwell element) or without.
     fn exact_phases(&self) -> bool {
         let mut kinks = Vec::new();
         !self.adaptive
-            && (self.n_states() == 0 || self.exact_memory)
             && !self.floored
             && self.terms.iter().all(|(c, theta)| {
                 c.kinks(theta, &mut kinks);

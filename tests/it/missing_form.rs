@@ -11,6 +11,7 @@ use hbis::data::{synthesize, Aligned};
 use hbis::inference::{MapSettings, Noise};
 use hbis::model::effect_file::FileEffect;
 use hbis::model::{ForwardModel, Model, Params, Registry};
+use hbis::study::{fit_record, FitOptions};
 use rand::{rngs::StdRng, SeedableRng};
 
 /// A 10 s, 200 Hz record of `model` at Table 8.1 row 5 plus `extra`, with
@@ -37,6 +38,35 @@ fn made(model: &Model, truth: &[f64], rng: &mut StdRng) -> (Aligned, f64) {
     (data.clone(), sse / data.energy())
 }
 
+/// `e2` of `model`'s MAP on `data` from scratch as `hbis fit --map-only
+/// --seed 2` finds it (the fit runner: a global search, and a second one
+/// where the first leaves a structured residual).
+fn fitted_as_hbis_fit(model: &Model, data: &Aligned) -> f64 {
+    let options = FitOptions {
+        seed: 2,
+        sample: None,
+        design_target: None,
+        ..FitOptions::default()
+    };
+    let fit = fit_record(
+        model.clone(),
+        data.clone(),
+        None,
+        Noise::White,
+        &options,
+        &mut |_| {},
+    )
+    .unwrap();
+    println!(
+        "fitted as `hbis fit` does: {} evaluations in {} runs, best found twice {:?}, second search {:?}",
+        fit.map.cmaes_evaluations,
+        fit.map.runs.len(),
+        fit.map.best_repeated,
+        fit.second_search
+    );
+    fit.map.eval.e2
+}
+
 /// `start` diagnosed on `data` with white noise, seed 1.
 fn diagnosed(start: &Model, data: &Aligned) -> (ModelFit, Vec<RankedCandidate>) {
     let settings = MapSettings::default();
@@ -61,7 +91,6 @@ fn a_viscoelastic_rubber_is_described_as_a_memory_force() {
         11,
     );
     let start = Model::parse("trilinear+lcfm+viscous").unwrap();
-    let settings = MapSettings::default();
     let (fit, ranked) = diagnosed(&start, &data);
     println!(
         "record seed 11, seed 1: start e2 {:.5}, floor {floor:.5}",
@@ -88,13 +117,12 @@ fn a_viscoelastic_rubber_is_described_as_a_memory_force() {
     // Loaded back as a user would (`--effects`), fitted from scratch.
     let effect = FileEffect::from_toml(form.effect_file.as_ref().unwrap(), "missing.toml").unwrap();
     let extended = start.with_force(Arc::new(effect));
-    let refit = fit_model(&extended, &data, Noise::White, None, &settings, 2).unwrap();
+    let e2 = fitted_as_hbis_fit(&extended, &data);
     println!(
-        "with the effect file: e2 {:.5} ({:.3} of the floor)",
-        refit.e2,
-        refit.e2 / floor
+        "with the effect file: e2 {e2:.5} ({:.3} of the floor)",
+        e2 / floor
     );
-    assert!(refit.e2 <= 1.03 * floor);
+    assert!(e2 <= 1.03 * floor);
 }
 
 #[test]
@@ -259,13 +287,18 @@ fn a_memory_term_replaces_a_hysteretic_one_where_its_refit_fits_better() {
 
 /// Record 12 of `examples/memory_records` with seed 332540 (`r_m` 0.290,
 /// `tau_m` 0.447 s): the form's refits end at a hysteretic and a memory
-/// term together; the memory term alone, refitted from the time
-/// constants of `TAU_STARTS`, lowers BIC further. This is the form `hbis
-/// diagnose` reports where no candidate is accepted.
+/// term together (with a travel term between them since the exact flow
+/// solves the memory term, 2026-12-04); the memory term alone, refitted
+/// from the time constants of `TAU_STARTS`, lowers BIC further. This is
+/// the form `hbis diagnose` reports where no candidate is accepted.
 #[test]
 fn a_memory_term_alone_from_spread_time_constants_replaces_a_mixed_form() {
     let (before, after, _, tau) = around_starts(332_540_997_632);
-    assert_eq!(kinds(&before), ["hysteretic", "memory"]);
+    let mixed = kinds(&before);
+    assert!(
+        mixed.len() > 1 && mixed[0] == "hysteretic" && mixed.contains(&"memory"),
+        "{mixed:?}"
+    );
     assert_eq!(kinds(&after), ["memory"]);
     assert!(after.delta_bic.unwrap() < before.delta_bic.unwrap());
     let found = after.terms[0].time_constant_s.unwrap();
@@ -314,20 +347,18 @@ fn before_and_after_starts(seed: u64) -> (Vec<&'static str>, hbis::criticism::Mi
     let effect =
         FileEffect::from_toml(after.effect_file.as_ref().unwrap(), "missing.toml").unwrap();
     let extended = start.with_force(Arc::new(effect));
-    let settings = MapSettings::default();
-    let refit = fit_model(&extended, &data, Noise::White, None, &settings, 2).unwrap();
-    println!(
-        "with the effect file: e2 {:.3} of the floor",
-        refit.e2 / floor
-    );
-    assert!(refit.e2 <= 1.03 * floor);
+    let e2 = fitted_as_hbis_fit(&extended, &data);
+    println!("with the effect file: e2 {:.3} of the floor", e2 / floor);
+    assert!(e2 <= 1.03 * floor);
     (kinds(&before), after, tau)
 }
 
 /// Record 11 of `examples/memory_records` with seed 336096 (`r_m` 0.272,
-/// `tau_m` 0.567 s): the form is an elastic, a memory (0.78 s) and a
-/// hysteretic term, `e2` 1.03 times the noise floor, and no local refit
-/// of the memory term alone beats it: the start model's parameters, fitted
+/// `tau_m` 0.567 s): the form has a memory term far from the truth
+/// (an elastic, a memory term of 0.78 s and a hysteretic term on the
+/// adaptive integrator; a travel and a memory term of 1.52 s on the
+/// exact flow, 2026-12-04), and no local refit of the memory term
+/// alone beats it: the start model's parameters, fitted
 /// without the force, hold every local search in their basin (from them,
 /// the truth's own structure ended 170-270 nats below its refit from the
 /// truth). The global search of the model with a memory term alone, and
@@ -337,7 +368,7 @@ fn before_and_after_starts(seed: u64) -> (Vec<&'static str>, hbis::criticism::Mi
 #[test]
 fn a_memory_term_alone_from_a_global_search_replaces_a_form_local_refits_cannot_leave() {
     let (before, after, tau) = before_and_after_starts(336_097_008_299);
-    assert_eq!(before, ["elastic", "memory", "hysteretic"]);
+    assert!(before.len() > 1 && before.contains(&"memory"), "{before:?}");
     assert_eq!(kinds(&after), ["memory"]);
     let found = after.terms[0].time_constant_s.unwrap();
     assert!((found / tau - 1.0).abs() <= 0.3, "{found} for {tau}");
