@@ -70,12 +70,7 @@ pub fn record(seed: u64) -> (ModelSpec, Vec<f64>, Synthetic) {
 pub fn fit_one(seed: u64) -> Outcome {
     let (spec, truth, syn) = record(seed);
     let data = syn.record.aligned(None).expect("a release");
-    let options = FitOptions {
-        seed,
-        sample: None,
-        design_target: None,
-        ..FitOptions::default()
-    };
+    let options = FitOptions::map_only(seed);
     // The floor on the record as made (released at its first sample), not
     // as the fit placed it: a misplaced release must not lower the floor.
     let truth_post = hbis::inference::Posterior::with_default_priors(

@@ -56,12 +56,7 @@ fn runs(seed: u64, sensor: &str) -> Vec<Run> {
     let budget = MapSettings::default().max_evals();
     (0..3)
         .map(|j| {
-            let options = FitOptions {
-                seed: 3 * seed + j,
-                sample: None,
-                design_target: None,
-                ..FitOptions::default()
-            };
+            let options = FitOptions::map_only(3 * seed + j);
             let fit = fit_record(
                 model.clone(),
                 data.clone(),

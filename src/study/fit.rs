@@ -89,6 +89,19 @@ pub struct FitOptions {
     pub design_target: Option<f64>,
 }
 
+impl FitOptions {
+    /// The MAP only (`hbis fit --map-only --no-design --seed SEED`): no
+    /// posterior run, no design table.
+    pub fn map_only(seed: u64) -> Self {
+        Self {
+            seed,
+            sample: None,
+            design_target: None,
+            ..Self::default()
+        }
+    }
+}
+
 impl Default for FitOptions {
     fn default() -> Self {
         Self {

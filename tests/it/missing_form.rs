@@ -42,12 +42,7 @@ fn made(model: &Model, truth: &[f64], rng: &mut StdRng) -> (Aligned, f64) {
 /// --seed 2` finds it (the fit runner: a global search, and a second one
 /// where the first leaves a structured residual).
 fn fitted_as_hbis_fit(model: &Model, data: &Aligned) -> f64 {
-    let options = FitOptions {
-        seed: 2,
-        sample: None,
-        design_target: None,
-        ..FitOptions::default()
-    };
+    let options = FitOptions::map_only(2);
     let fit = fit_record(
         model.clone(),
         data.clone(),
