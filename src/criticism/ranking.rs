@@ -614,7 +614,7 @@ fn starts(c: &Candidate, new: &[usize], spread: &[f64], data: &Aligned) -> Vec<V
 /// refused it as a stand-in for that term (2026-12-04, on the exact flow,
 /// `memory_fit::the_ladder_adds_the_maxwell_effect_file`).
 fn fraction_of((lo, hi): (f64, f64), f: f64) -> f64 {
-    if lo > 0.0 && hi >= 100.0 * lo {
+    if crate::inference::map::log_scaled(lo, hi) {
         lo * (hi / lo).powf(f)
     } else {
         lo + f * (hi - lo)

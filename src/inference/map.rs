@@ -275,9 +275,7 @@ where
     // CMA-ES's uniform starts then spread evenly over orders of magnitude
     // instead of crowding the top decade (where, e.g., a `u3` beyond the
     // largest amplitude is a flat basin).
-    let log_scale: Vec<bool> = (0..d)
-        .map(|i| lo[i] > 0.0 && hi[i] >= 100.0 * lo[i])
-        .collect();
+    let log_scale: Vec<bool> = (0..d).map(|i| log_scaled(lo[i], hi[i])).collect();
     let to_theta = |u: &[f64]| -> Vec<f64> {
         (0..d)
             .map(|i| {
@@ -440,6 +438,12 @@ where
         wall_time: clock.elapsed().as_secs_f64(),
         best_repeated,
     })
+}
+
+/// Whether a parameter with support `(lo, hi)` is searched on a log
+/// scale: a positive lower bound and two decades or more.
+pub fn log_scaled(lo: f64, hi: f64) -> bool {
+    lo > 0.0 && hi >= 100.0 * lo
 }
 
 /// Two runs ended within this (nats of log-posterior) are taken as the
