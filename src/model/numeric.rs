@@ -415,6 +415,17 @@ impl<'a> NumericSystem<'a> {
             };
             last_dir = d;
             let target = sp.next_event(branch, d);
+            if let Some((x, nb)) = target.filter(|(x, _)| d * (x - u) <= 1e-12 * scale) {
+                // Already there (sliding on after a rest on the envelope,
+                // which the stop unloaded): an event function that starts
+                // on or behind its zero would not fire, and whether it
+                // starts a rounding error ahead of it or behind depends on
+                // the engine (the forced response's rule, with a margin for
+                // the exact flow's event functions, read off at the origin).
+                u = x;
+                branch = nb;
+                continue;
+            }
             let b = branch;
             let (u_s, s_s) = (u, s);
             let nan = NanWatch::default();
