@@ -79,6 +79,29 @@ fn keeps(g: f64) -> bool {
     g > 0.0
 }
 
+/// The event functions that can fire, each times its sign (positive
+/// while it keeps that sign), in fixed arrays: checked at every sample.
+struct Watch<const N: usize> {
+    g0: [f64; MAX_EVENTS],
+    w: [[f64; N]; MAX_EVENTS],
+    len: usize,
+}
+
+impl<const N: usize> Watch<N> {
+    /// Whether every watched function keeps its sign at `y`. Without a
+    /// short circuit: the functions are few, and a branch per function
+    /// and sample cost more than the products (the `numeric_maxwell`
+    /// bench, 2026-12-04).
+    #[inline]
+    fn all_keep(&self, y: &[f64; N]) -> bool {
+        let mut all = true;
+        for e in 0..self.len {
+            all &= keeps(self.g0[e] + dot(&self.w[e], y));
+        }
+        all
+    }
+}
+
 #[inline]
 fn dot<const N: usize>(a: &[f64; N], b: &[f64; N]) -> f64 {
     a.iter().zip(b).map(|(x, y)| x * y).sum()
@@ -342,10 +365,16 @@ where
     // The functions that can fire, each times its sign: positive while
     // it keeps that sign (a constant one never fires).
     let watched = |sign: &[f64; MAX_EVENTS]| {
-        let mut out = Vec::with_capacity(n_events);
+        let mut out = Watch {
+            g0: [0.0; MAX_EVENTS],
+            w: [[0.0; N]; MAX_EVENTS],
+            len: 0,
+        };
         for e in 0..n_events {
             if sign[e] != 0.0 && w[e].iter().any(|&x| x != 0.0) {
-                out.push((g0[e] * sign[e], w[e].map(|x| x * sign[e])));
+                out.g0[out.len] = g0[e] * sign[e];
+                out.w[out.len] = w[e].map(|x| x * sign[e]);
+                out.len += 1;
             }
         }
         out
@@ -367,7 +396,7 @@ where
         if on_grid && !unsigned {
             while next < grid.n && grid.time(next) < t_end {
                 let y_new = full.apply(&y);
-                if watch.iter().any(|(g0, w)| !keeps(g0 + dot(w, &y_new))) {
+                if !watch.all_keep(&y_new) {
                     break;
                 }
                 (t, y) = (grid.time(next), y_new);
@@ -395,7 +424,7 @@ where
         steps += 1;
         // Not finite propagates through the map: checked where it stops,
         // and where an event function cannot tell.
-        let crossed = watch.iter().any(|(g0, w)| !keeps(g0 + dot(w, &y_new)));
+        let crossed = !watch.all_keep(&y_new);
         if crossed {
             if !finite(&y_new) {
                 return Err(OdeError::NonFinite { t: target });
