@@ -8,23 +8,36 @@
 //! intervals.
 //!
 //! ```sh
-//! cargo run --release --features examples --example criticism_calibration -- 20 5 2026 [outcomes.json] [OUTSIDE] [sensor=averaging]
+//! cargo run --release --features examples --example criticism_calibration -- 20 5 2026 [outcomes.json] [OUTSIDE] [sensor=averaging] [record=INDEX]
 //! ```
 //! Arguments: null records per noise kind (20), records per hidden effect
 //! (5; eight effects), seed (2026), optionally a file for the outcomes as
 //! JSON, records per out-of-catalog physics (three kinds; as many as per
 //! hidden effect unless given), and `sensor=averaging` to make every
 //! record, and fit every model, with the averaging sensor. The tables in
-//! the README and docs/criticism.md came from that command.
+//! the README and docs/criticism.md came from that command. `record=INDEX`
+//! criticises only the study's record `INDEX` (its seed is
+//! `seed * 1000003 + INDEX`, as in the full study): one line of a study
+//! replayed, to see what a change of the code does to it.
 
-use hbis::criticism::calibration::{standard, study, table, Outcome, Sensor};
+use hbis::criticism::calibration::{criticise, standard, study, table, Outcome, Sensor};
 use hbis::model::Registry;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let (options, args): (Vec<String>, Vec<String>) = std::env::args()
         .skip(1)
-        .partition(|a| a.starts_with("sensor="));
-    let sensor = match options.last().map(String::as_str) {
+        .partition(|a| a.starts_with("sensor=") || a.starts_with("record="));
+    let record: Option<usize> = options
+        .iter()
+        .filter_map(|o| o.strip_prefix("record="))
+        .next_back()
+        .map(str::parse)
+        .transpose()?;
+    let sensor = match options
+        .iter()
+        .rfind(|o| o.starts_with("sensor="))
+        .map(String::as_str)
+    {
         None | Some("sensor=instant") => Sensor::Instant,
         Some("sensor=averaging") => Sensor::Averaging,
         Some(other) => {
@@ -55,13 +68,19 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 .map_or(String::new(), |r| format!("; {:?}: {r}", o.hidden))
         )
     };
-    let outcomes = study(
-        &Registry::builtin(),
-        &standard(nulls, per_effect, per_outside),
-        sensor,
-        seed,
-        &line,
-    )?;
+    let kinds = standard(nulls, per_effect, per_outside);
+    let outcomes = match record {
+        None => study(&Registry::builtin(), &kinds, sensor, seed, &line)?,
+        Some(i) => {
+            let kind = *kinds
+                .get(i)
+                .ok_or_else(|| format!("record={i}: the study has {} records", kinds.len()))?;
+            let seed = seed.wrapping_mul(1_000_003).wrapping_add(i as u64);
+            let o = criticise(&Registry::builtin(), kind, sensor, seed)?;
+            line(&o);
+            vec![o]
+        }
+    };
     println!(
         "criticism calibration: seed {seed}, sensor {sensor:?}, {} records, {:.0} s",
         outcomes.len(),
