@@ -6,7 +6,9 @@
 
 use std::sync::Arc;
 
-use hbis::criticism::{diagnose_model, fit_model, missing_form, ModelFit, RankedCandidate};
+use hbis::criticism::{
+    diagnose_ranking, fit_model, missing_form, MissingForm, ModelFit, RankedCandidate,
+};
 use hbis::data::{synthesize, Aligned};
 use hbis::inference::{MapSettings, Noise};
 use hbis::model::effect_file::FileEffect;
@@ -62,10 +64,12 @@ fn fitted_as_hbis_fit(model: &Model, data: &Aligned) -> f64 {
     fit.map.eval.e2
 }
 
-/// `start` diagnosed on `data` with white noise, seed 1.
-fn diagnosed(start: &Model, data: &Aligned) -> (ModelFit, Vec<RankedCandidate>) {
+/// `start` diagnosed on `data` with white noise, seed 1: the start fit,
+/// the ranked candidates and the missing form of that fit (the
+/// diagnosis's own, so that no test computes it twice).
+fn diagnosed(start: &Model, data: &Aligned) -> (ModelFit, Vec<RankedCandidate>, MissingForm) {
     let settings = MapSettings::default();
-    let (fit, _, ranked) = diagnose_model(
+    let (_, ranking) = diagnose_ranking(
         &Registry::builtin(),
         start,
         data,
@@ -74,7 +78,10 @@ fn diagnosed(start: &Model, data: &Aligned) -> (ModelFit, Vec<RankedCandidate>) 
         1,
     )
     .unwrap();
-    (fit, ranked)
+    let form = ranking
+        .form
+        .expect("a diagnosis describes the missing form");
+    (ranking.current, ranking.candidates, form)
 }
 
 #[test]
@@ -86,7 +93,7 @@ fn a_viscoelastic_rubber_is_described_as_a_memory_force() {
         11,
     );
     let start = Model::parse("trilinear+lcfm+viscous").unwrap();
-    let (fit, ranked) = diagnosed(&start, &data);
+    let (fit, ranked, form) = diagnosed(&start, &data);
     println!(
         "record seed 11, seed 1: start e2 {:.5}, floor {floor:.5}",
         fit.e2
@@ -103,7 +110,6 @@ fn a_viscoelastic_rubber_is_described_as_a_memory_force() {
         .map(|c| c.effect.as_str());
     println!("accepted: {stand_in:?}");
     assert_eq!(stand_in, None);
-    let form = missing_form(&start, &fit, &data, &MapSettings::default()).unwrap();
     println!("{:?}", form.terms);
     let first = &form.terms[0];
     assert_eq!(first.kind, "memory");
@@ -153,8 +159,7 @@ fn the_forms_refit_starts_from_the_denser_of_two_points() {
     let (data, floor, tau) = memory_record(seed);
     let start = Model::parse("trilinear+lcfm+viscous").unwrap();
     // The current fit as the example's: the diagnosis's.
-    let (fit, _) = diagnosed(&start, &data);
-    let form = missing_form(&start, &fit, &data, &MapSettings::default()).unwrap();
+    let (fit, _, form) = diagnosed(&start, &data);
     println!(
         "record seed {seed}: tau_m {tau:.3} s; start e2 {:.4} of the floor; terms {:?}; e2 with them {:?} of the floor",
         fit.e2 / floor,
@@ -193,17 +198,18 @@ fn memory_record(seed: u64) -> (Aligned, f64, f64) {
 
 /// The record of [`memory_record`] diagnosed from
 /// `trilinear+lcfm+viscous`, where no candidate is accepted (asserted):
-/// the record, its floor and `tau_m`, the start model and its fit.
-fn undecided(seed: u64) -> (Aligned, f64, f64, Model, ModelFit) {
+/// the record, its floor and `tau_m`, the start model, its fit and the
+/// missing form of that fit.
+fn undecided(seed: u64) -> (Aligned, f64, f64, Model, ModelFit, MissingForm) {
     let (data, floor, tau) = memory_record(seed);
     let start = Model::parse("trilinear+lcfm+viscous").unwrap();
-    let (fit, ranked) = diagnosed(&start, &data);
+    let (fit, ranked, form) = diagnosed(&start, &data);
     assert!(ranked.iter().all(|c| !c.accepted));
-    (data, floor, tau, start, fit)
+    (data, floor, tau, start, fit, form)
 }
 
 /// Prints a form's terms, change of BIC and `e2` over the noise floor.
-fn show(label: &str, f: &hbis::criticism::MissingForm, floor: f64) {
+fn show(label: &str, f: &MissingForm, floor: f64) {
     println!(
         "{label}: {:?}, BIC {:?}, e2 {:?} of the floor",
         f.terms,
@@ -213,7 +219,7 @@ fn show(label: &str, f: &hbis::criticism::MissingForm, floor: f64) {
 }
 
 /// The kinds of a form's terms, in order.
-fn kinds(f: &hbis::criticism::MissingForm) -> Vec<&'static str> {
+fn kinds(f: &MissingForm) -> Vec<&'static str> {
     f.terms.iter().map(|t| t.kind).collect()
 }
 
@@ -225,9 +231,8 @@ fn kinds(f: &hbis::criticism::MissingForm) -> Vec<&'static str> {
 /// the form `hbis diagnose` reports where no candidate is accepted.
 #[test]
 fn a_memory_term_is_reported_alone_where_the_terms_beside_it_do_not_pay() {
-    let (data, _, tau, start, fit) = undecided(332_540_997_638);
+    let (data, _, tau, start, fit, whole) = undecided(332_540_997_638);
     let settings = MapSettings::default();
-    let whole = missing_form(&start, &fit, &data, &settings).unwrap();
     println!("whole: {:?}, BIC {:?}", whole.terms, whole.delta_bic);
     assert!(kinds(&whole).len() > 1 && kinds(&whole).contains(&"memory"));
     let alone = whole
@@ -258,9 +263,8 @@ fn a_memory_term_is_reported_alone_where_the_terms_beside_it_do_not_pay() {
 /// is accepted.
 #[test]
 fn a_memory_term_replaces_a_hysteretic_one_where_its_refit_fits_better() {
-    let (data, floor, tau, start, fit) = undecided(332_540_997_636);
+    let (data, floor, tau, start, fit, form) = undecided(332_540_997_636);
     let settings = MapSettings::default();
-    let form = missing_form(&start, &fit, &data, &settings).unwrap();
     show("form", &form, floor);
     assert_eq!(kinds(&form), ["hysteretic"]);
     let reported = form
@@ -303,20 +307,12 @@ fn a_memory_term_alone_from_spread_time_constants_replaces_a_mixed_form() {
 
 /// The form of record `seed` of `examples/memory_records` (diagnosed as
 /// [`undecided`]) before and after
-/// [`hbis::criticism::MissingForm::memory_starts`], and the record with
+/// [`MissingForm::memory_starts`], and the record with
 /// its `tau_m`, start model and floor.
-fn around_starts(
-    seed: u64,
-) -> (
-    hbis::criticism::MissingForm,
-    hbis::criticism::MissingForm,
-    (Aligned, Model, f64),
-    f64,
-) {
-    let (data, floor, tau, start, fit) = undecided(seed);
+fn around_starts(seed: u64) -> (MissingForm, MissingForm, (Aligned, Model, f64), f64) {
+    let (data, floor, tau, start, fit, form) = undecided(seed);
     let settings = MapSettings::default();
-    let before = missing_form(&start, &fit, &data, &settings)
-        .unwrap()
+    let before = form
         .memory_instead(&start, &fit, &data, &settings)
         .unwrap()
         .stateful_alone(&start, &fit, &data, &settings)
@@ -334,7 +330,7 @@ fn around_starts(
 /// further and, loaded back as a user would (`--effects`) and fitted from
 /// scratch, reaches the noise floor within 3 %: the kinds before, the
 /// form after, `tau_m`.
-fn before_and_after_starts(seed: u64) -> (Vec<&'static str>, hbis::criticism::MissingForm, f64) {
+fn before_and_after_starts(seed: u64) -> (Vec<&'static str>, MissingForm, f64) {
     let (before, after, (data, start, floor), tau) = around_starts(seed);
     assert!(after.delta_bic.unwrap() < before.delta_bic.unwrap());
     // The global search's coefficient was relative to `k0`; the file's is
