@@ -194,6 +194,32 @@ fn the_records_behind_the_reversal_rule_keep_their_verdicts() {
     assert_eq!(real.accepted.as_deref(), Some("velocity-friction"));
 }
 
+/// A null record with sensor noise of the calibration of 2026-12-05 (seed
+/// 261492124, its record 5; docs/criticism.md) to which
+/// `asymmetric-friction` was added with BIC -112.2, of which only -4.7
+/// (4 %) lay away from the reversals, where the candidates at their
+/// neutral values gain -6.3 to -6.5. With the support away from them
+/// asked to be at least [`OFF_JUMPS_SHARE`] of the whole it is refused;
+/// with the bound of 0 that came before the share (`OFF_JUMPS_SHARE` 0)
+/// this test fails.
+#[test]
+fn a_gain_made_almost_only_at_the_reversals_is_not_added() {
+    use hbis::criticism::calibration::criticise;
+    use hbis::criticism::ranking::OFF_JUMPS_SHARE;
+    let o = criticise(
+        &Registry::builtin(),
+        Kind::NullColoured,
+        Sensor::Instant,
+        261_492_908_476_377,
+    )
+    .unwrap();
+    eprintln!(
+        "seed {} (share asked {OFF_JUMPS_SHARE}): first {:?} ({:+.1}), accepted {:?}; {}",
+        o.seed, o.first, o.first_delta_bic, o.accepted, o.reason
+    );
+    assert!(!o.false_discovery(), "{:?}", o.accepted);
+}
+
 /// A record of the out-of-sample run of 2026-11-29 (seed 372848, its
 /// record 71; stiffness degradation hidden, `kappa_k` 0.38) whose global
 /// fit of the start model ended in a poor basin with `uy` and `zeta0` on
