@@ -1906,8 +1906,10 @@ impl Gate {
             ));
         }
         // Said only of a gain: without one there is nothing to place.
-        if self.delta_bic < -SUPPORT && !self.off_jumps() {
-            let d = self.delta_bic_off_jumps.unwrap_or(f64::NAN);
+        if let Some(d) = self
+            .delta_bic_off_jumps
+            .filter(|_| self.delta_bic < -SUPPORT && !self.off_jumps())
+        {
             let limit = if d >= 0.0 {
                 "not below 0".to_string()
             } else {
