@@ -1502,13 +1502,43 @@ fn remains(
     let start = carried(&both, refit, candidate, &[(&base, &with)]);
     let joint = fit_model(&both, data, fit.noise, Some(start), settings, seed ^ 1)?;
     let delta = joint.bic - base.bic;
-    Ok((delta > -SUPPORT).then(|| {
+    Ok((delta > -SUPPORT)
+        .then(|| remains_reason(&ooc.description, form_gain, delta, joint.bic - refit.bic)))
+}
+
+/// The reason [`remains`] gives for refusing a candidate beside the
+/// missing form's term `description`: the term lowers BIC by
+/// `-form_gain`, the candidate changes it by `delta` beside the term, and
+/// the term by `beyond` beside the candidate (the joint fit against the
+/// candidate's refit). Only where the term still lowers BIC by more than
+/// [`SUPPORT`] beside the candidate do the numbers show that the
+/// candidate stands in for it; otherwise each stands in for the other as
+/// far as the record tells, and the reason says so (a degradation record
+/// of 2026-12-05, seed 51758551 record 34, was refused beside `u^3` and
+/// called a stand-in). Either way the candidate is not added: a catalog
+/// effect is added only where it explains what the form's term does not.
+///
+/// ```
+/// use hbis::criticism::ranking::remains_reason;
+/// let stand_in = remains_reason("memory term (u - q, dq/dt = (u - q) / 0.510)", -404.8, -1.7, -350.0);
+/// assert!(stand_in.contains("stands in for a force the catalog does not hold"), "{stand_in}");
+/// let tie = remains_reason("elastic term (u^3)", -45.0, -3.0, -7.1);
+/// assert!(tie.contains("cannot tell it from"), "{tie}");
+/// assert!(tie.contains("-7.1") && tie.contains("-3.0") && tie.contains("45.0"), "{tie}");
+/// assert!(!tie.contains("catalog does not hold"), "{tie}");
+/// ```
+pub fn remains_reason(description: &str, form_gain: f64, delta: f64, beyond: f64) -> String {
+    if beyond <= -SUPPORT {
         format!(
-            "the missing form's {} lowers BIC by {:.1}, more than it does, and with that term in both models it changes BIC by {delta:+.1}, not below -{SUPPORT}: it stands in for a force the catalog does not hold",
-            ooc.description,
+            "the missing form's {description} lowers BIC by {:.1}, more than it does, and with that term in both models it changes BIC by {delta:+.1}, not below -{SUPPORT}, while the term changes it by {beyond:+.1} beside it: it stands in for a force the catalog does not hold",
             -form_gain
         )
-    }))
+    } else {
+        format!(
+            "the record cannot tell it from the missing form's {description}: that term lowers BIC by {:.1}, more than it does; with both in the model it changes BIC by {delta:+.1} beside the term and the term {beyond:+.1} beside it, neither below -{SUPPORT}; a catalog effect is added only where it explains what a force outside the catalog does not",
+            -form_gain
+        )
+    }
 }
 
 /// Whether `extended` holds another spring law than `current`: an
@@ -1813,7 +1843,9 @@ pub struct Gate {
     /// Set when it stands in for a force no catalog component makes: the
     /// missing form's memory or hysteretic terms explain more, and beside
     /// them it gains nothing (docs/criticism.md, "When an effect is
-    /// added", item 8).
+    /// added", item 8). The reason says whether the terms still gain
+    /// beside it or the record cannot tell the two apart
+    /// ([`remains_reason`]).
     pub remains: Option<String>,
     /// Its refit's raw `e2` over the current model's (not whitened).
     pub raw_e2_ratio: f64,
