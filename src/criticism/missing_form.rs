@@ -457,6 +457,24 @@ pub fn found_by_both(log_likelihood_a: f64, log_likelihood_b: f64) -> bool {
     (log_likelihood_a - log_likelihood_b).abs() < SAME_BASIN
 }
 
+/// The best (lowest `score`) of [`GLOBAL_SEEDS`]' searches: the first two
+/// side by side, the third only where they did not end in one basin
+/// ([`found_by_both`] on `log_likelihood`); a failed search (`None`) is
+/// no agreement.
+fn best_of_global<T: Send>(
+    search: impl Fn(u64) -> Option<T> + Sync,
+    log_likelihood: impl Fn(&T) -> f64,
+    score: impl Fn(&T) -> f64,
+) -> Option<T> {
+    let (a, b) = rayon::join(|| search(GLOBAL_SEEDS[0]), || search(GLOBAL_SEEDS[1]));
+    let agree = matches!((&a, &b), (Some(a), Some(b)) if found_by_both(log_likelihood(a), log_likelihood(b)));
+    let c = if agree { None } else { search(GLOBAL_SEEDS[2]) };
+    [a, b, c]
+        .into_iter()
+        .flatten()
+        .min_by(|a, b| score(a).total_cmp(&score(b)))
+}
+
 /// The time constants (s) [`memory_global`] searches: two decades and
 /// more, so that the search runs on a log scale
 /// ([`crate::inference::find_map`]); on the library's [`TAU_RANGE`] it
@@ -509,15 +527,7 @@ fn memory_global(
     let global = settings.clone().with_max_evals(GLOBAL_BUDGET)?;
     // A cancelled search is caught by the caller's check.
     let search = |s: u64| fit_model(&alone, data, fit.noise, None, &global, REFIT_SEED ^ s).ok();
-    let (a, b) = rayon::join(|| search(GLOBAL_SEEDS[0]), || search(GLOBAL_SEEDS[1]));
-    let agree =
-        matches!((&a, &b), (Some(a), Some(b)) if found_by_both(a.log_likelihood, b.log_likelihood));
-    let c = if agree { None } else { search(GLOBAL_SEEDS[2]) };
-    let Some(r) = [a, b, c]
-        .into_iter()
-        .flatten()
-        .min_by(|a, b| a.bic.total_cmp(&b.bic))
-    else {
+    let Some(r) = best_of_global(search, |r| r.log_likelihood, |r| r.bic) else {
         return Ok(None);
     };
     let Some(f0) = alone.layout().get(r.model_theta(&alone), "f0") else {
@@ -1351,6 +1361,41 @@ mod tests {
             let exact = t - tau * (1.0 - (-t / tau).exp());
             assert!((qi - exact).abs() < 1e-12, "{i}: {qi} vs {exact}");
         }
+    }
+
+    /// The third global search runs exactly where the first two disagree
+    /// (or one failed), and the best of those run is kept.
+    #[test]
+    fn the_third_global_search_runs_only_where_the_first_two_disagree() {
+        use std::sync::atomic::{AtomicUsize, Ordering};
+        // Search results by seed: (log-likelihood, score = -2 logL).
+        let run = |ends: [Option<f64>; 3]| {
+            let calls = AtomicUsize::new(0);
+            let search = |s: u64| {
+                calls.fetch_add(1, Ordering::Relaxed);
+                let i = GLOBAL_SEEDS.iter().position(|&g| g == s).unwrap();
+                ends[i]
+            };
+            let best = best_of_global(search, |l| *l, |l| -2.0 * l);
+            (best, calls.load(Ordering::Relaxed))
+        };
+        // One basin: two searches, the better kept.
+        assert_eq!(
+            run([Some(-100.0), Some(-100.5), Some(50.0)]),
+            (Some(-100.0), 2)
+        );
+        // Apart: the third runs, and here it is the best.
+        assert_eq!(
+            run([Some(-100.0), Some(-300.0), Some(-20.0)]),
+            (Some(-20.0), 3)
+        );
+        assert_eq!(
+            run([Some(-300.0), Some(-100.0), Some(-400.0)]),
+            (Some(-100.0), 3)
+        );
+        // A failed search is no agreement.
+        assert_eq!(run([None, Some(-100.0), Some(-90.0)]), (Some(-90.0), 3));
+        assert_eq!(run([None, None, None]), (None, 3));
     }
 
     #[test]
