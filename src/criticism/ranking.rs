@@ -1506,7 +1506,7 @@ fn remains(
         .then(|| remains_reason(&ooc.description, form_gain, delta, joint.bic - refit.bic)))
 }
 
-/// The reason [`remains`] gives for refusing a candidate beside the
+/// The reason gate 8 (`Gate::remains`) gives for refusing a candidate beside the
 /// missing form's term `description`: the term lowers BIC by
 /// `-form_gain`, the candidate changes it by `delta` beside the term, and
 /// the term by `beyond` beside the candidate (the joint fit against the
