@@ -1506,17 +1506,19 @@ fn remains(
         .then(|| remains_reason(&ooc.description, form_gain, delta, joint.bic - refit.bic)))
 }
 
-/// The reason gate 8 (`Gate::remains`) gives for refusing a candidate beside the
-/// missing form's term `description`: the term lowers BIC by
+/// The reason gate 8 (`Gate::remains`) gives for refusing a candidate
+/// beside the missing form's term `description`: the term lowers BIC by
 /// `-form_gain`, the candidate changes it by `delta` beside the term, and
 /// the term by `beyond` beside the candidate (the joint fit against the
 /// candidate's refit). Only where the term still lowers BIC by more than
 /// [`SUPPORT`] beside the candidate do the numbers show that the
 /// candidate stands in for it; otherwise each stands in for the other as
-/// far as the record tells, and the reason says so (a degradation record
-/// of 2026-12-05, seed 51758551 record 34, was refused beside `u^3` and
-/// called a stand-in). Either way the candidate is not added: a catalog
-/// effect is added only where it explains what the form's term does not.
+/// far as the record tells, and the reason says so. (On a hidden
+/// degradation record of 2026-12-05, seed 51758551 record 34, `u^3`
+/// changed BIC by -10.5 beside the truth's effect: just past the
+/// threshold, so it keeps the stand-in wording.) Either way the candidate
+/// is not added: a catalog effect is added only where it explains what
+/// the form's term does not.
 ///
 /// ```
 /// use hbis::criticism::ranking::remains_reason;
