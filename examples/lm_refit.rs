@@ -150,8 +150,8 @@ impl Residuals<'_> {
 }
 
 /// Levenberg-Marquardt (Marquardt's diagonal scaling, Nielsen's damping
-/// update) from `start`: the end, its sum of squares, the evaluations.
-fn levenberg_marquardt(model: &Model, data: &Aligned, start: &[f64]) -> (Vec<f64>, f64, usize) {
+/// update) from `start`: the end's sum of squares and the evaluations.
+fn levenberg_marquardt(model: &Model, data: &Aligned, start: &[f64]) -> (f64, usize) {
     let unit = UnitBox(Posterior::layout_for(model, Noise::White).bounds());
     let mut z = unit.to_z(start);
     let mut res = Residuals {
@@ -223,7 +223,7 @@ fn levenberg_marquardt(model: &Model, data: &Aligned, start: &[f64]) -> (Vec<f64
             Some(_) => small = 0,
         }
     }
-    (res.unit.to_x(&z), s, res.evals)
+    (s, res.evals)
 }
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
@@ -274,7 +274,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 )?;
                 let tc = clock.elapsed().as_secs_f64();
                 let clock = Instant::now();
-                let (_, mut s_lm, mut evals) = levenberg_marquardt(&c.model, &rec.data, &c.start);
+                let (mut s_lm, mut evals) = levenberg_marquardt(&c.model, &rec.data, &c.start);
                 if spread {
                     // Also from the ranking's spread start: the new
                     // parameters mid-range (on the search's scale).
@@ -287,7 +287,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                             z[k] = 0.5;
                         }
                     }
-                    let (_, s2, e2) = levenberg_marquardt(&c.model, &rec.data, &unit.to_x(&z));
+                    let (s2, e2) = levenberg_marquardt(&c.model, &rec.data, &unit.to_x(&z));
                     s_lm = s_lm.min(s2);
                     evals += e2;
                 }
