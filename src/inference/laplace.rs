@@ -255,6 +255,47 @@ pub fn bulk_value<E: Send>(
     Ok(neighbourhood(f, x, lo, hi)?.median)
 }
 
+/// The points of [`bulk_value`]'s design around `x` at relative step
+/// `step` of each range `hi - lo`: `x + s step (hi - lo)` for the sign
+/// patterns `s` of the rows of a Sylvester-Hadamard matrix of order
+/// `2^ceil(log2(d + 1))` (all but the first row, and their negatives),
+/// clamped to `[lo, hi]` (a point on a bound moves only into the box
+/// there). Fixed, not drawn: every coordinate moves at once, in balanced
+/// directions.
+///
+/// ```
+/// use hbis::inference::laplace::design;
+/// let pts = design(&[0.0, 0.0], &[-1.0, -1.0], &[1.0, 1.0], 0.5);
+/// // Order 4: rows 1-3 and their negatives.
+/// assert_eq!(pts.len(), 6);
+/// assert_eq!(pts[0], vec![-0.5, 0.5]);
+/// assert_eq!(pts[1], vec![0.5, -0.5]);
+/// // Each coordinate's steps balance over the design.
+/// assert_eq!(pts.iter().map(|p| p[0]).sum::<f64>(), 0.0);
+/// ```
+pub fn design(x: &[f64], lo: &[f64], hi: &[f64], step: f64) -> Vec<Vec<f64>> {
+    let d = x.len();
+    let order = (d + 1).next_power_of_two();
+    // Sylvester's Hadamard matrix: entry (i, j) is (-1)^popcount(i & j).
+    let sign = |i: usize, j: usize| {
+        if (i & j).count_ones() % 2 == 0 {
+            1.0
+        } else {
+            -1.0
+        }
+    };
+    (1..order)
+        .flat_map(|i| [(i, 1.0), (i, -1.0)])
+        .map(|(i, flip)| {
+            (0..d)
+                .map(|j| {
+                    (x[j] + flip * sign(i, j + 1) * step * (hi[j] - lo[j])).clamp(lo[j], hi[j])
+                })
+                .collect()
+        })
+        .collect()
+}
+
 /// `f` on the points of [`bulk_value`]'s design around `x`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Neighbourhood {
@@ -278,31 +319,11 @@ pub fn neighbourhood<E: Send>(
     lo: &[f64],
     hi: &[f64],
 ) -> Result<Neighbourhood, E> {
-    let d = x.len();
-    let order = (d + 1).next_power_of_two();
-    // Sylvester's Hadamard matrix: entry (i, j) is (-1)^popcount(i & j).
-    let sign = |i: usize, j: usize| {
-        if (i & j).count_ones() % 2 == 0 {
-            1.0
-        } else {
-            -1.0
-        }
-    };
-    let points: Vec<(usize, f64)> = (1..order).flat_map(|i| [(i, 1.0), (i, -1.0)]).collect();
-    let evaluated: Vec<Result<f64, E>> = points
+    let evaluated: Vec<Result<f64, E>> = design(x, lo, hi, BULK_STEP)
         .par_iter()
-        .map(|&(i, flip)| {
-            // Clamped: a MAP on a bound moves only into the box there.
-            let y: Vec<f64> = (0..d)
-                .map(|j| {
-                    let step = flip * sign(i, j + 1) * BULK_STEP * (hi[j] - lo[j]);
-                    (x[j] + step).clamp(lo[j], hi[j])
-                })
-                .collect();
-            f(&y)
-        })
+        .map(|y| f(y))
         .collect();
-    let mut values = Vec::with_capacity(2 * order);
+    let mut values = Vec::with_capacity(evaluated.len());
     for v in evaluated {
         let v = v?;
         if v.is_finite() {
