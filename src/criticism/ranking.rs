@@ -61,7 +61,7 @@ use super::sanity::bound_reached;
 use super::search::carried;
 use crate::data::Aligned;
 use crate::inference::pipeline::{
-    fit_map, laplace_evidence, off_corner, Comparison, MapFit, PipelineError,
+    compare, fit_map, laplace_evidence, Comparison, MapFit, PipelineError,
 };
 use crate::inference::Polish;
 use crate::inference::{MapError, MapSettings, Noise, Posterior, PosteriorError, Priors};
@@ -506,8 +506,7 @@ fn escalates(model: &Model) -> bool {
     model.closed_form() || model.interval_mean()
 }
 
-/// The MAP stage alone (no evidence), with its comparison numbers, moved
-/// off a corner of the knife edges where it sits on one ([`off_corner`]).
+/// The MAP stage alone (no evidence), with its comparison numbers.
 fn map_of(
     model: &Model,
     data: &Aligned,
@@ -517,7 +516,7 @@ fn map_of(
     seed: u64,
 ) -> Result<(MapFit<Model>, Comparison), CriticismError> {
     let mut rng = StdRng::seed_from_u64(seed);
-    let mut fit = fit_map(
+    let fit = fit_map(
         model.clone(),
         data.clone(),
         priors_for(model, noise, data.dt),
@@ -526,14 +525,7 @@ fn map_of(
         start,
         &mut rng,
     )?;
-    let (theta, cmp) = off_corner(&fit.posterior, &fit.map.theta)?;
-    if theta != fit.map.theta {
-        fit.map.eval = fit
-            .posterior
-            .evaluate(&theta)
-            .map_err(PipelineError::from)?;
-        fit.map.theta = theta;
-    }
+    let cmp = compare(&fit.posterior, &fit.map.theta)?;
     Ok((fit, cmp))
 }
 

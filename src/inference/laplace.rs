@@ -265,7 +265,8 @@ pub fn bulk_value<E: Send>(
 ///
 /// ```
 /// use hbis::inference::laplace::design;
-/// let pts = design(&[0.0, 0.0], &[-1.0, -1.0], &[1.0, 1.0], 0.5);
+/// // A step of a quarter of each range (2): 0.5.
+/// let pts = design(&[0.0, 0.0], &[-1.0, -1.0], &[1.0, 1.0], 0.25);
 /// // Order 4: rows 1-3 and their negatives.
 /// assert_eq!(pts.len(), 6);
 /// assert_eq!(pts[0], vec![-0.5, 0.5]);

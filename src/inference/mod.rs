@@ -28,9 +28,7 @@ pub use bounds::{BoundsError, BoxTransform};
 pub use cmaes::{Cmaes, CmaesError, CmaesResult, RunSummary, Start, StopReason};
 pub use likelihood::Noise;
 pub use map::{find_map, MapError, MapEstimate, MapSettings, PolishReport};
-pub use pipeline::{
-    compare, fit_map, laplace_evidence, off_corner, Comparison, MapFit, PipelineError,
-};
+pub use pipeline::{compare, fit_map, laplace_evidence, Comparison, MapFit, PipelineError};
 pub use polish::{Polish, PolishError, PolishOutcome};
 pub use posterior::{Evaluation, Posterior, PosteriorError};
 pub use priors::{default_bounds, Prior, PriorError, Priors};

@@ -30,8 +30,7 @@ use thiserror::Error;
 
 use super::ensemble::SamplerError;
 use super::laplace::{
-    axis_scales, covariance_from, design, hessian, log_evidence, neighbourhood, Laplace,
-    SCALE_DROP, STEP,
+    axis_scales, covariance_from, hessian, log_evidence, neighbourhood, Laplace, SCALE_DROP, STEP,
 };
 use super::likelihood::{ar1_sum, sum_of_squares};
 use super::release::{fit_lag, LagError};
@@ -179,56 +178,6 @@ pub fn compare<M: ForwardModel>(
         samples: n,
         parameters: d,
     })
-}
-
-/// Nats by which a point's own log-likelihood may stand above its
-/// comparison value ([`compare`]) before [`off_corner`] searches beside it:
-/// a smooth maximum's neighbours 1e-6 of a range away lose some 1e-4 nat,
-/// a corner of knife edges tens (docs/criticism.md, "The CI failure of
-/// 06c5c1c").
-pub const CORNER: f64 = 2.0;
-
-/// Relative steps (of each prior range) of the designs [`off_corner`]
-/// searches: past the knife edges around a corner, still well inside a
-/// posterior sd (some 1e-2 of a range on the records measured).
-pub const CORNER_STEPS: [f64; 2] = [1e-5, 1e-4];
-
-/// A point near `theta` whose comparison value is the best found, with
-/// that comparison: `theta` itself unless it sits on a corner.
-///
-/// A MAP search drives its point onto corners of the likelihood's knife
-/// edges (reversals exactly on sample instants), where the point's own
-/// value stands above every neighbour and [`compare`] counts only what
-/// the neighbours are worth. The search itself never looks for volume, so
-/// a model can lose tens of nats of BIC to the corner its optimiser
-/// chose, while a point 1e-4 of a range away keeps them (measured: a
-/// truth's fit 26.5 nats below its point, and a point nearby 29.7 above
-/// its comparison value). Where the point stands more than [`CORNER`]
-/// above its comparison value, the fixed designs of [`design`] at
-/// [`CORNER_STEPS`] are searched, and the point with the best comparison
-/// value kept (`theta` on ties). Deterministic: no draws.
-pub fn off_corner<M: ForwardModel>(
-    posterior: &Posterior<M>,
-    theta: &[f64],
-) -> Result<(Vec<f64>, Comparison), PipelineError> {
-    let at = compare(posterior, theta)?;
-    if log_likelihood_at(posterior, theta)? - at.log_likelihood <= CORNER {
-        return Ok((theta.to_vec(), at));
-    }
-    let (lo, hi) = posterior.priors().box_bounds();
-    let mut best = (theta.to_vec(), at);
-    for step in CORNER_STEPS {
-        for y in design(theta, &lo, &hi, step) {
-            if posterior.log_posterior(&y)? == f64::NEG_INFINITY {
-                continue;
-            }
-            let c = compare(posterior, &y)?;
-            if c.log_likelihood > best.1.log_likelihood {
-                best = (y, c);
-            }
-        }
-    }
-    Ok(best)
 }
 
 /// The sigma-profiled log-likelihood of `posterior`'s record at `theta`.

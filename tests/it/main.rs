@@ -35,7 +35,6 @@ mod memory_fit;
 mod missing_form;
 mod model_props;
 mod numeric_engine;
-mod off_corner;
 mod paper_checks;
 mod record_props;
 mod release;
