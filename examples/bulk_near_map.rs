@@ -11,8 +11,10 @@
 //! every candidate from its warm start (one local search each, as the
 //! ranking's first start), then prints each fit's comparison value at its
 //! MAP and the best comparison value among 120 points drawn uniformly
-//! within 1e-5 (60) and 1e-4 (60) of each range around it, and the BIC
-//! changes against the start model both ways.
+//! within 1e-5 (60) and 1e-4 (60) of each range around it, and on the
+//! fixed designs of `inference::laplace::design` at the same two steps
+//! (what b29950b's `off_corner` searched), and the BIC changes against the
+//! start model each way.
 //!
 //! ```sh
 //! cargo run --release --features examples --example bulk_near_map -- 623499 9 7
@@ -27,16 +29,19 @@ use hbis::criticism::calibration::{make_record, Kind, Sensor, HIDDEN};
 use hbis::criticism::ranking::start_fit;
 use hbis::criticism::{fit_model, place_release, priors_for};
 use hbis::data::Aligned;
+use hbis::inference::laplace::design;
 use hbis::inference::{compare, MapSettings, Noise, Posterior};
 use hbis::model::{ForwardModel, Model, Registry};
 use rand::{rngs::StdRng, RngExt, SeedableRng};
 
-/// The comparison value at `theta` and the best one found near it.
+/// The comparison value at `theta`, the best one among the random points
+/// near it, and the best one on the fixed designs of
+/// [`hbis::inference::laplace::design`] at the same two steps.
 fn best_near(
     model: &Model,
     data: &Aligned,
     theta: &[f64],
-) -> Result<(f64, f64), Box<dyn std::error::Error>> {
+) -> Result<(f64, f64, f64), Box<dyn std::error::Error>> {
     let priors = priors_for(model, Noise::White, data.dt);
     let post = Posterior::new(model.clone(), data.clone(), priors, Noise::White)?;
     let bounds = Posterior::layout_for(model, Noise::White).bounds();
@@ -57,7 +62,16 @@ fn best_near(
             }
         }
     }
-    Ok((at, best))
+    let (lo, hi): (Vec<f64>, Vec<f64>) = bounds.iter().copied().unzip();
+    let mut fixed = at;
+    for scale in [1e-5, 1e-4] {
+        for t in design(theta, &lo, &hi, scale) {
+            if let Ok(c) = compare(&post, &t) {
+                fixed = fixed.max(c.log_likelihood);
+            }
+        }
+    }
+    Ok((at, best, fixed))
 }
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
@@ -80,9 +94,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let data = place_release(&rec.start, rec.data.clone(), &settings, s)?;
     let start = start_fit(&rec.start, &data, Noise::White, &settings, s)?;
     let n = data.a.len() as f64;
-    let (s_at, s_near) = best_near(&rec.start, &data, &start.theta)?;
+    let (s_at, s_near, s_fixed) = best_near(&rec.start, &data, &start.theta)?;
     println!(
-        "start {}: comparison log-likelihood {s_at:.2} at the MAP, best near it {s_near:.2}",
+        "start {}: comparison log-likelihood {s_at:.2} at the MAP, best near it {s_near:.2} (random), {s_fixed:.2} (design)",
         rec.start.name()
     );
     let theta = start.model_theta(&rec.start).to_vec();
@@ -95,14 +109,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             &settings,
             s,
         )?;
-        let (at, near) = best_near(&c.model, &data, &fit.theta)?;
+        let (at, near, fixed) = best_near(&c.model, &data, &fit.theta)?;
         let extra = (fit.theta.len() - start.theta.len()) as f64;
         let bic = |l: f64, l0: f64| extra * n.ln() - 2.0 * (l - l0);
         println!(
-            "{:>20}: {at:.2} at the MAP, best near it {near:.2}; BIC change at the MAPs {:+.1}, best near both {:+.1}",
+            "{:>20}: {at:.2} at the MAP, best near it {near:.2} (random), {fixed:.2} (design); BIC change at the MAPs {:+.1}, best near both {:+.1} (random), {:+.1} (design)",
             c.effect,
             bic(at, s_at),
-            bic(near, s_near)
+            bic(near, s_near),
+            bic(fixed, s_fixed)
         );
     }
     Ok(())
