@@ -46,32 +46,31 @@ fn best_near(
     let post = Posterior::new(model.clone(), data.clone(), priors, Noise::White)?;
     let bounds = Posterior::layout_for(model, Noise::White).bounds();
     let at = compare(&post, theta)?.log_likelihood;
+    // Points where the model fails are skipped.
+    let best_of = |points: Vec<Vec<f64>>| {
+        points
+            .iter()
+            .filter_map(|t| compare(&post, t).ok())
+            .fold(at, |m, c| m.max(c.log_likelihood))
+    };
+    let (lo, hi): (Vec<f64>, Vec<f64>) = bounds.iter().copied().unzip();
     let mut rng = StdRng::seed_from_u64(1);
-    let mut best = at;
+    let (mut random, mut fixed) = (Vec::new(), Vec::new());
     for scale in [1e-5, 1e-4] {
         for _ in 0..60 {
-            let t: Vec<f64> = theta
-                .iter()
-                .zip(&bounds)
-                .map(|(x, (lo, hi))| {
-                    (x + scale * (hi - lo) * rng.random_range(-1.0..1.0)).clamp(*lo, *hi)
-                })
-                .collect();
-            if let Ok(c) = compare(&post, &t) {
-                best = best.max(c.log_likelihood);
-            }
+            random.push(
+                theta
+                    .iter()
+                    .zip(&bounds)
+                    .map(|(x, (lo, hi))| {
+                        (x + scale * (hi - lo) * rng.random_range(-1.0..1.0)).clamp(*lo, *hi)
+                    })
+                    .collect(),
+            );
         }
+        fixed.extend(design(theta, &lo, &hi, scale));
     }
-    let (lo, hi): (Vec<f64>, Vec<f64>) = bounds.iter().copied().unzip();
-    let mut fixed = at;
-    for scale in [1e-5, 1e-4] {
-        for t in design(theta, &lo, &hi, scale) {
-            if let Ok(c) = compare(&post, &t) {
-                fixed = fixed.max(c.log_likelihood);
-            }
-        }
-    }
-    Ok((at, best, fixed))
+    Ok((at, best_of(random), best_of(fixed)))
 }
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
