@@ -409,20 +409,22 @@ fn a_memory_force_gets_no_catalog_stand_in() {
     assert!(!o.false_discovery(), "{:?}: {}", o.accepted, o.reason);
 }
 
-/// A Maxwell record of a calibration run, criticised as the calibration
-/// does; printed.
-fn maxwell_record(seed: u64) -> hbis::criticism::calibration::Outcome {
-    let o = hbis::criticism::calibration::criticise(
-        &Registry::builtin(),
-        Kind::Outside(0),
-        Sensor::Instant,
-        seed,
-    )
-    .unwrap();
+/// A record of a calibration run of `kind`, criticised as the
+/// calibration does (instantaneous sensor); printed.
+fn criticised(kind: Kind, seed: u64) -> hbis::criticism::calibration::Outcome {
+    let o =
+        hbis::criticism::calibration::criticise(&Registry::builtin(), kind, Sensor::Instant, seed)
+            .unwrap();
     eprintln!(
-        "{seed}: {:?} {:?}: first {:?} ({:+.1}), accepted {:?}; {}",
-        o.outside, o.hidden_values, o.first, o.first_delta_bic, o.accepted, o.reason
+        "{seed}: {:?} {:?} {:?}: first {:?} ({:+.1}), accepted {:?}; {}",
+        o.hidden, o.outside, o.hidden_values, o.first, o.first_delta_bic, o.accepted, o.reason
     );
+    o
+}
+
+/// A Maxwell record of a calibration run ([`criticised`]).
+fn maxwell_record(seed: u64) -> hbis::criticism::calibration::Outcome {
+    let o = criticised(Kind::Outside(0), seed);
     assert_eq!(o.outside.as_deref(), Some("maxwell"));
     o
 }
@@ -544,17 +546,7 @@ fn a_stand_in_is_judged_beside_the_memory_search_at_its_own_fit() {
 /// (`MissingForm::memory_search`).
 #[test]
 fn a_missing_damper_is_not_refused_beside_a_memory_term_that_is_one() {
-    let o = hbis::criticism::calibration::criticise(
-        &Registry::builtin(),
-        Kind::Hidden(7),
-        Sensor::Instant,
-        235_684_487u64.wrapping_mul(1_000_003) + 53,
-    )
-    .unwrap();
-    eprintln!(
-        "first {:?} ({:+.1}), accepted {:?}; {}",
-        o.first, o.first_delta_bic, o.accepted, o.reason
-    );
+    let o = criticised(Kind::Hidden(7), 235_684_487u64.wrapping_mul(1_000_003) + 53);
     assert_eq!(o.hidden.as_deref(), Some("viscous"));
     assert!(o.recovered(), "{:?}: {}", o.accepted, o.reason);
 }
@@ -567,17 +559,7 @@ fn a_missing_damper_is_not_refused_beside_a_memory_term_that_is_one() {
 /// (`ranking::whitened`).
 #[test]
 fn a_stand_in_that_moves_the_colour_across_its_line_by_a_hair_is_not_added() {
-    let o = hbis::criticism::calibration::criticise(
-        &Registry::builtin(),
-        Kind::Outside(1),
-        Sensor::Instant,
-        176_469_741_407_699,
-    )
-    .unwrap();
-    eprintln!(
-        "first {:?} ({:+.1}), accepted {:?}; {}",
-        o.first, o.first_delta_bic, o.accepted, o.reason
-    );
+    let o = criticised(Kind::Outside(1), 176_469_741_407_699);
     assert_eq!(o.outside.as_deref(), Some("bouc-wen"));
     assert_eq!(o.first.as_deref(), Some("asymmetric-friction"));
     assert!(!o.false_discovery(), "{:?}: {}", o.accepted, o.reason);
