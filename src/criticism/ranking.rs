@@ -1432,8 +1432,9 @@ fn held_by(
 }
 
 /// Set when the terms `ooc` of the current fit's missing form, those no
-/// catalog component makes (led by a memory or hysteretic term,
-/// [`MissingForm::out_of_catalog`], or by an elastic term where no
+/// catalog component makes (led by a memory or hysteretic term, or a
+/// travel or time term that adds force, [`MissingForm::out_of_catalog`],
+/// or by an elastic term where no
 /// candidate changes the spring law, [`MissingForm::elastic_lead`]; or
 /// its memory terms that do not lead it, [`MissingForm::memory_terms`]),
 /// lower BIC by more than `beat` (the candidate's own change; for memory

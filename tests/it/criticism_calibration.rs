@@ -564,3 +564,20 @@ fn a_stand_in_that_moves_the_colour_across_its_line_by_a_hair_is_not_added() {
     assert_eq!(o.first.as_deref(), Some("asymmetric-friction"));
     assert!(!o.false_discovery(), "{:?}: {}", o.accepted, o.reason);
 }
+
+/// A Maxwell record of the out-of-sample run of commit 6e67633 (seed
+/// 115766835, its record 59: `r_m` 0.248, `tau_m` 0.74 s; AR(1) noise
+/// chosen). The missing form was `travel u` alone with a positive
+/// coefficient (BIC -95.7): a stiffness that grows as the test goes on,
+/// which no catalog component makes (`degradation` only softens, and its
+/// refit stayed at neutral). Taken for a catalog term, the form let
+/// `friction-decay` (BIC -47.8) in. Outside the catalog, it has gate 8
+/// run the memory search, whose term of about 0.78 s lowers BIC by 350,
+/// and beside it `friction-decay` gains nothing.
+#[test]
+fn a_stiffening_with_travel_is_no_catalog_term() {
+    let o = maxwell_record(115_766_835u64.wrapping_mul(1_000_003) + 59);
+    assert!(o.first_delta_bic < -10.0, "{}", o.first_delta_bic);
+    assert!(!o.false_discovery(), "{:?}: {}", o.accepted, o.reason);
+    assert!(o.reason.contains("memory term"), "{}", o.reason);
+}
