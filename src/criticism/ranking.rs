@@ -1531,16 +1531,26 @@ fn remains(
 /// assert!(tie.contains("cannot tell it from"), "{tie}");
 /// assert!(tie.contains("-7.1") && tie.contains("-3.0") && tie.contains("45.0"), "{tie}");
 /// assert!(!tie.contains("catalog does not hold"), "{tie}");
+/// // Two terms are named as such.
+/// let two = remains_reason("memory term (u - q, dq/dt = (u - q) / 0.376) and travel term (travel u)", -626.1, 15.4, -519.6);
+/// assert!(two.contains("travel u) lower BIC by 626.1") && two.contains("with those terms in both"), "{two}");
 /// ```
 pub fn remains_reason(description: &str, form_gain: f64, delta: f64, beyond: f64) -> String {
+    // `description` joins its terms with " and " (`held_anywhere`).
+    let (term, lowers, changes) = if description.contains(" and ") {
+        ("terms", "lower", "change")
+    } else {
+        ("term", "lowers", "changes")
+    };
+    let those = if term == "terms" { "those" } else { "that" };
     if beyond <= -SUPPORT {
         format!(
-            "the missing form's {description} lowers BIC by {:.1}, more than it does, and with that term in both models it changes BIC by {delta:+.1}, not below -{SUPPORT}, while the term changes it by {beyond:+.1} beside it: it stands in for a force the catalog does not hold",
+            "the missing form's {description} {lowers} BIC by {:.1}, more than it does, and with {those} {term} in both models it changes BIC by {delta:+.1}, not below -{SUPPORT}, while the {term} {changes} it by {beyond:+.1} beside it: it stands in for a force the catalog does not hold",
             -form_gain
         )
     } else {
         format!(
-            "the record cannot tell it from the missing form's {description}: that term lowers BIC by {:.1}, more than it does; with both in the model it changes BIC by {delta:+.1} beside the term and the term {beyond:+.1} beside it, neither below -{SUPPORT}; a catalog effect is added only where it explains what a force outside the catalog does not",
+            "the record cannot tell it from the missing form's {description}: {those} {term} {lowers} BIC by {:.1}, more than it does; with both in the model it changes BIC by {delta:+.1} beside the {term} and the {term} {beyond:+.1} beside it, neither below -{SUPPORT}; a catalog effect is added only where it explains what a force outside the catalog does not",
             -form_gain
         )
     }
