@@ -1537,12 +1537,11 @@ fn remains(
 /// ```
 pub fn remains_reason(description: &str, form_gain: f64, delta: f64, beyond: f64) -> String {
     // `description` joins its terms with " and " (`held_anywhere`).
-    let (term, lowers, changes) = if description.contains(" and ") {
-        ("terms", "lower", "change")
+    let (those, term, lowers, changes) = if description.contains(" and ") {
+        ("those", "terms", "lower", "change")
     } else {
-        ("term", "lowers", "changes")
+        ("that", "term", "lowers", "changes")
     };
-    let those = if term == "terms" { "those" } else { "that" };
     if beyond <= -SUPPORT {
         format!(
             "the missing form's {description} {lowers} BIC by {:.1}, more than it does, and with {those} {term} in both models it changes BIC by {delta:+.1}, not below -{SUPPORT}, while the {term} {changes} it by {beyond:+.1} beside it: it stands in for a force the catalog does not hold",
