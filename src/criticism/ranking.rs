@@ -1772,6 +1772,14 @@ pub const GAINED_Z: f64 = 3.40;
 /// 176469741407700) catalog stand-ins were added as `Q` went from 41.9 to
 /// 33.8 and from 46.8 to 34.5 (p 0.027 and 0.023), BIC -13.7 and -18.6;
 /// the hidden effects accepted this way that day ended at 18.5-23.1.
+///
+/// Coloured before means coloured at the same 5 % (`Q` above
+/// [`white_q`]), not only reported at 1 % (since 2026-12-07, session 33):
+/// two hidden `velocity-friction` records on white noise (calibration
+/// seeds 243288580 record 25 and 114605778 record 24, BIC -94.4 and
+/// -39.7) were refused with `Q` going from 36.3 to 13.1 and from 32.1 to
+/// 24.0, their declared structures (jumps, decay) below significance
+/// before and after.
 fn whitened(before: &[Feature], after: &[Feature]) -> Option<(f64, f64)> {
     let colour = |fs: &[Feature]| {
         fs.iter()
@@ -1779,7 +1787,8 @@ fn whitened(before: &[Feature], after: &[Feature]) -> Option<(f64, f64)> {
             .map(|f| (f.significant, f.magnitude))
     };
     let (b, a) = (colour(before)?, colour(after)?);
-    (b.0 && !a.0 && a.1 <= white_q()).then_some((b.1, a.1))
+    let white = white_q();
+    (b.1 > white && !a.0 && a.1 <= white).then_some((b.1, a.1))
 }
 
 /// The largest Ljung-Box `Q` on [`LJUNG_BOX_LAGS`] lags that white noise
@@ -1905,7 +1914,7 @@ pub struct Gate {
     /// And after.
     pub target_after: f64,
     /// The residual's Ljung-Box `Q` before and after, when its refit turns
-    /// a coloured residual white (Ljung-Box significant before, not after).
+    /// a coloured residual white (Ljung-Box `Q` above [`white_q`] before, at most it after).
     pub whitens: Option<(f64, f64)>,
     /// Set when its refit did not converge ([`RankedCandidate::converged`]):
     /// why, with the numbers.
@@ -2712,6 +2721,12 @@ mod tests {
         assert_eq!(
             whitened(&[colour(30.0, false)], &[colour(18.5, false)]),
             None
+        );
+        // Coloured at 5 % but not reported at 1 % before, white after (a
+        // hidden velocity friction, seed 243288580 record 25): white.
+        assert_eq!(
+            whitened(&[colour(36.3, false)], &[colour(13.1, false)]),
+            Some((36.3, 13.1))
         );
     }
 
