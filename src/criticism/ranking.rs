@@ -1914,7 +1914,8 @@ pub struct Gate {
     /// And after.
     pub target_after: f64,
     /// The residual's Ljung-Box `Q` before and after, when its refit turns
-    /// a coloured residual white (Ljung-Box `Q` above [`white_q`] before, at most it after).
+    /// a coloured residual white (Ljung-Box `Q` above 31.41, the 5 % line on
+    /// its 20 lags, before; at most it after).
     pub whitens: Option<(f64, f64)>,
     /// Set when its refit did not converge ([`RankedCandidate::converged`]):
     /// why, with the numbers.
