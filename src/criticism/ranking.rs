@@ -1774,7 +1774,8 @@ pub const GAINED_Z: f64 = 3.40;
 /// the hidden effects accepted this way that day ended at 18.5-23.1.
 ///
 /// Coloured before means coloured at the same 5 % (`Q` above
-/// [`white_q`]), not only reported at 1 % (since 2026-12-07, session 33):
+/// [`white_q`]), or reported coloured, not only reported at 1 % (since
+/// 2026-12-07, session 33):
 /// two hidden `velocity-friction` records on white noise (calibration
 /// seeds 243288580 record 25 and 114605778 record 24, BIC -94.4 and
 /// -39.7) were refused with `Q` going from 36.3 to 13.1 and from 32.1 to
@@ -1788,7 +1789,9 @@ fn whitened(before: &[Feature], after: &[Feature]) -> Option<(f64, f64)> {
     };
     let (b, a) = (colour(before)?, colour(after)?);
     let white = white_q();
-    (b.1 > white && !a.0 && a.1 <= white).then_some((b.1, a.1))
+    // `b.0` keeps a residual reported coloured by its lag-1 correlation
+    // alone (possible on short records) coloured, as before.
+    ((b.0 || b.1 > white) && !a.0 && a.1 <= white).then_some((b.1, a.1))
 }
 
 /// The largest Ljung-Box `Q` on [`LJUNG_BOX_LAGS`] lags that white noise
@@ -2728,6 +2731,12 @@ mod tests {
         assert_eq!(
             whitened(&[colour(36.3, false)], &[colour(13.1, false)]),
             Some((36.3, 13.1))
+        );
+        // Reported coloured by its lag-1 correlation alone (a short
+        // record), white after: white, as before the 5 % line came in.
+        assert_eq!(
+            whitened(&[colour(25.0, true)], &[colour(10.0, false)]),
+            Some((25.0, 10.0))
         );
     }
 
