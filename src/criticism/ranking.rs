@@ -1774,13 +1774,12 @@ pub const GAINED_Z: f64 = 3.40;
 /// the hidden effects accepted this way that day ended at 18.5-23.1.
 ///
 /// Coloured before means coloured at the same 5 % (`Q` above
-/// [`white_q`]), or reported coloured, not only reported at 1 % (since
-/// 2026-12-07, session 33):
-/// two hidden `velocity-friction` records on white noise (calibration
-/// seeds 243288580 record 25 and 114605778 record 24, BIC -94.4 and
-/// -39.7) were refused with `Q` going from 36.3 to 13.1 and from 32.1 to
-/// 24.0, their declared structures (jumps, decay) below significance
-/// before and after.
+/// [`white_q`]) or reported coloured, not only `Q` beyond the 1 % line
+/// (since 2026-12-07, session 33): two hidden `velocity-friction` records
+/// on white noise (calibration seeds 243288580 record 25 and 114605778
+/// record 24, BIC -94.4 and -39.7) were refused with `Q` going from 36.3
+/// to 13.1 and from 32.1 to 24.0, their declared structures (jumps,
+/// decay) below significance before and after.
 fn whitened(before: &[Feature], after: &[Feature]) -> Option<(f64, f64)> {
     let colour = |fs: &[Feature]| {
         fs.iter()
