@@ -246,20 +246,12 @@ pub fn decay_rate(d: &Diagnostics) -> Feature {
 /// ```text
 /// ln q_k = c0 + c1 k + A s_k,  s_k = (-1)^k,  weights q_k^2 / se(q_k)^2
 /// three half-cycles: A = (ln q_0 - 2 ln q_1 + ln q_2) / 4
-/// se(A) from the weights, times sqrt((1 + r1) / (1 - r1)) (r1 the raw
-/// residual's lag-one correlation, 0 to 0.99)
 /// significant: |A| > 0.005 and |A| / se(A) > 3
 /// ```
 pub fn swing_direction(d: &Diagnostics) -> Feature {
     let kept = timed_gains(d);
     let fitted = alternation(&kept);
-    // The gains' standard errors take the residual as white; serially
-    // correlated noise spreads them more, as for the offset (on a null
-    // record under coloured sensor noise the alternation stood at 8.3 of
-    // the white-noise standard errors).
-    let r1 = d.lag1_raw.clamp(0.0, 0.99);
-    let inflation = ((1.0 + r1) / (1.0 - r1)).sqrt();
-    let (a, se) = fitted.map_or((0.0, f64::INFINITY), |(a, se)| (a, se * inflation));
+    let (a, se) = fitted.unwrap_or((0.0, f64::INFINITY));
     let z = a.abs() / se;
     Feature {
         kind: FeatureKind::SwingDirection,
@@ -267,7 +259,7 @@ pub fn swing_direction(d: &Diagnostics) -> Feature {
         z,
         significant: a.abs() > 0.005 && z > 3.0,
         sentence: format!(
-            "The record's swings are {:.1} % larger than the model's when the mass moves {} and as much smaller the other way ({z:.1} standard errors): swings centred off zero do this where friction or stiffness depends on |u| (a force that acts one way while the mass slides, such as friction stronger one way), which a model centred at zero lacks.",
+            "The record's swings are {:.1} % larger than the model's when the mass moves {} and as much smaller the other way ({z:.1} standard errors): the swings are centred off zero, as under a force that acts one way while the mass slides (friction stronger one way), which a model centred at zero lacks.",
             100.0 * (a.abs().exp() - 1.0),
             // Half-cycle 0 ends at the first reversal: it moved towards
             // that reversal's side.
