@@ -1709,7 +1709,7 @@ fn worsened(
 }
 
 /// Whether a structure turned significant by the candidate's refit was
-/// gained: not significant before; for the five structures with a
+/// gained: not significant before; for the four structures with a
 /// standard error, at least [`GAINED_Z`] of them; and for the colour a
 /// Ljung-Box `Q` higher by more than its standard deviation under white noise,
 /// `sqrt(2 h)` (`Q` is chi-squared on `h` lags then). `Q` moves with any
@@ -1730,16 +1730,14 @@ fn gained(before: &Feature, after: &Feature) -> bool {
             FeatureKind::PeriodDrift
             | FeatureKind::DecayRate
             | FeatureKind::JumpSize
-            | FeatureKind::JumpDirection
-            | FeatureKind::SwingDirection => after.z > GAINED_Z,
+            | FeatureKind::JumpDirection => after.z > GAINED_Z,
             _ => true,
         }
 }
 
 /// How many standard errors a structure with a standard error (period
-/// drift, decay rate, jump size, jump direction, swing direction) must
-/// reach to count as gained: three, Bonferroni-corrected over those five
-/// (four, 3.40, until the swing direction came in on 2026-12-07), so that a refit
+/// drift, decay rate, jump size, jump direction) must reach to count as
+/// gained: three, Bonferroni-corrected over those four, so that a refit
 /// of the true structure is refused for noise in one of them no more
 /// often than one structure alone is reported significant by noise
 /// (`P(|z| > 3) = 0.0027`).
@@ -1752,16 +1750,9 @@ fn gained(before: &Feature, after: &Feature) -> bool {
 ///
 /// # Formula
 /// ```text
-/// 2 (1 - Phi(z)) = 0.0027 / 5:   z = 3.46
+/// 2 (1 - Phi(z)) = 0.0027 / 4:   z = 3.40
 /// ```
-///
-/// ```
-/// use hbis::criticism::ranking::GAINED_Z;
-/// use statrs::distribution::{ContinuousCDF, Normal};
-/// let tail = |z: f64| 2.0 * (1.0 - Normal::standard().cdf(z));
-/// assert!((tail(GAINED_Z) - tail(3.0) / 5.0).abs() < 2e-6);
-/// ```
-pub const GAINED_Z: f64 = 3.46;
+pub const GAINED_Z: f64 = 3.40;
 
 /// The Ljung-Box `Q` before and after when the residual is coloured before
 /// the candidate's refit and white after: the candidate explains the
