@@ -13,7 +13,6 @@
 //!                 ln q_k regressed on k (weighted): change = slope (K - 1)
 //! jump size       rho = sum J_rec J_mod / sum J_mod^2,  mismatch = rho - 1
 //! jump direction  rho_+ - rho_- (jumps with J_mod > 0 against J_mod < 0)
-//! swing direction ln q_k = c0 + c1 k + A (-1)^k (weighted); alternation |A|
 //! spectral peak   share of the power within ±5 % of the largest ordinate's
 //!                 frequency, less white noise's share of that band
 //! ```
@@ -199,10 +198,19 @@ pub fn period_drift(d: &Diagnostics) -> Feature {
 
 /// Swings decaying at another rate than the model's.
 pub fn decay_rate(d: &Diagnostics) -> Feature {
-    let kept = timed_gains(d);
-    let x: Vec<f64> = kept.iter().map(|p| p.0).collect();
-    let y: Vec<f64> = kept.iter().map(|p| p.1).collect();
-    let se: Vec<f64> = kept.iter().map(|p| p.2).collect();
+    let a_max = d
+        .half_cycles
+        .iter()
+        .map(|h| h.amplitude)
+        .fold(0.0, f64::max);
+    let kept: Vec<_> = d
+        .half_cycles
+        .iter()
+        .filter(|h| h.amplitude >= 0.1 * a_max && h.gain > 0.0 && h.gain_se > 0.0)
+        .collect();
+    let x: Vec<f64> = kept.iter().map(|h| h.index as f64).collect();
+    let y: Vec<f64> = kept.iter().map(|h| h.gain.ln()).collect();
+    let se: Vec<f64> = kept.iter().map(|h| h.gain_se / h.gain).collect();
     let fitted = weighted_slope(&x, &y, &se);
     let span = x.last().zip(x.first()).map_or(0.0, |(b, a)| b - a);
     let (change, z) = fitted.map_or((0.0, 0.0), |(b, se)| (b * span, b.abs() / se.max(1e-12)));
@@ -220,102 +228,6 @@ pub fn decay_rate(d: &Diagnostics) -> Feature {
             if change < 0.0 { "dissipates less" } else { "dissipates more" }
         ),
     }
-}
-
-/// Swings whose size relative to the model's alternates with the direction
-/// of motion, beyond a trend: the log of each half-cycle's gain `q_k`
-/// (the record regressed on the model, as in [`decay_rate`], on the same
-/// half-cycles) regressed by weighted least squares on a constant, the
-/// half-cycle index and the direction `(-1)^k`. `A` is half the
-/// difference between the two directions' log gains; its standard error
-/// comes from the gains' own.
-///
-/// Why it is asymmetric friction's: a constant force while sliding
-/// centres the swings off zero, which an oscillator with a stiffness and
-/// friction independent of where it is would hide in a shifted release;
-/// where friction grows with `|u|` or the spring hardens at `|u| > u3`,
-/// the swing towards the shifted side meets more of both than the other,
-/// so the record's swings are larger than a centred model's one way and
-/// smaller the other (two hidden `asymmetric-friction` records whose
-/// period drift could not be measured: gains 1.001, 0.993, 1.017 and
-/// 0.999, 1.006, 0.988, `A` at 3.6 and 3.1 standard errors, 2026-12-07).
-/// A symmetric model error (damping, stiffness, an offset, whose mean over
-/// a half-cycle is zero) changes the gains smoothly or not at all.
-///
-/// # Formula
-/// ```text
-/// ln q_k = c0 + c1 k + A s_k,  s_k = (-1)^k,  weights q_k^2 / se(q_k)^2
-/// three half-cycles: A = (ln q_0 - 2 ln q_1 + ln q_2) / 4
-/// se(A) from the weights, times sqrt((1 + r1) / (1 - r1)) (r1 the raw
-/// residual's lag-one correlation, 0 to 0.99)
-/// significant: |A| > 0.005 and |A| / se(A) > 3
-/// ```
-pub fn swing_direction(d: &Diagnostics) -> Feature {
-    let kept = timed_gains(d);
-    let fitted = alternation(&kept);
-    // The gains' standard errors take the residual as white; serially
-    // correlated noise spreads them more, as for the offset (on a null
-    // record under coloured sensor noise the alternation stood at 8.3 of
-    // the white-noise standard errors).
-    let r1 = d.lag1_raw.clamp(0.0, 0.99);
-    let inflation = ((1.0 + r1) / (1.0 - r1)).sqrt();
-    let (a, se) = fitted.map_or((0.0, f64::INFINITY), |(a, se)| (a, se * inflation));
-    let z = a.abs() / se;
-    Feature {
-        kind: FeatureKind::SwingDirection,
-        magnitude: a.abs(),
-        z,
-        significant: a.abs() > 0.005 && z > 3.0,
-        sentence: format!(
-            "The record's swings are {:.1} % larger than the model's when the mass moves {} and as much smaller the other way ({z:.1} standard errors): swings centred off zero do this where friction or stiffness depends on |u| (a force that acts one way while the mass slides, such as friction stronger one way), which a model centred at zero lacks.",
-            100.0 * (a.abs().exp() - 1.0),
-            // Half-cycle 0 ends at the first reversal: it moved towards
-            // that reversal's side.
-            match d.jumps.first().map(|j| (j.u > 0.0) == (a > 0.0)) {
-                Some(true) => "towards +u",
-                Some(false) => "towards -u",
-                None => "one way",
-            }
-        ),
-    }
-}
-
-/// The half-cycles the gain features use: `(index, ln q, se of ln q)` on
-/// swings a tenth of the largest or more.
-fn timed_gains(d: &Diagnostics) -> Vec<(f64, f64, f64)> {
-    let a_max = d
-        .half_cycles
-        .iter()
-        .map(|h| h.amplitude)
-        .fold(0.0, f64::max);
-    d.half_cycles
-        .iter()
-        .filter(|h| h.amplitude >= 0.1 * a_max && h.gain > 0.0 && h.gain_se > 0.0)
-        .map(|h| (h.index as f64, h.gain.ln(), h.gain_se / h.gain))
-        .collect()
-}
-
-/// Weighted least squares of `y` on `[1, k, (-1)^k]` with known standard
-/// errors: the alternation's coefficient and its standard error (at
-/// least three points, both directions).
-fn alternation(points: &[(f64, f64, f64)]) -> Option<(f64, f64)> {
-    use nalgebra::{Matrix3, Vector3};
-    if points.len() < 3 {
-        return None;
-    }
-    let mut xtwx = Matrix3::zeros();
-    let mut xtwy = Vector3::zeros();
-    for &(k, y, se) in points {
-        let s = if (k as u64) % 2 == 0 { 1.0 } else { -1.0 };
-        let x = Vector3::new(1.0, k, s);
-        let w = 1.0 / (se * se);
-        xtwx += w * x * x.transpose();
-        xtwy += w * y * x;
-    }
-    let cov = xtwx.try_inverse()?;
-    let beta = cov * xtwy;
-    let var = cov[(2, 2)];
-    (beta[2].is_finite() && var > 0.0).then(|| (beta[2], var.sqrt()))
 }
 
 /// The record's jumps regressed on the model's over `js`: ratio and its
@@ -459,7 +371,6 @@ pub fn all(d: &Diagnostics, n: usize) -> Vec<Feature> {
         decay_rate(d),
         jump_size(d),
         jump_direction(d),
-        swing_direction(d),
         spectral_peak(d),
     ]
 }
@@ -542,83 +453,4 @@ pub fn verdict(d: &Diagnostics, features: &[Feature]) -> String {
         ));
     }
     lines.join(" ")
-}
-
-#[cfg(test)]
-mod tests {
-    use super::alternation;
-
-    /// `(index, ln q, se of ln q)` from gains and their standard errors.
-    fn logs(gains: &[(f64, f64)]) -> Vec<(f64, f64, f64)> {
-        gains
-            .iter()
-            .enumerate()
-            .map(|(k, &(q, se))| (k as f64, q.ln(), se / q))
-            .collect()
-    }
-
-    /// Three half-cycles fix the three coefficients: the alternation is
-    /// the second difference over four. The gains of a hidden
-    /// `asymmetric-friction` record (calibration seed 113338803, record
-    /// 39) whose period drift could not be measured.
-    #[test]
-    fn three_half_cycles_give_the_second_difference() {
-        let p = logs(&[(1.0011, 0.0019), (0.9925, 0.0032), (1.0165, 0.0062)]);
-        let (a, se) = alternation(&p).unwrap();
-        let second = (p[0].1 - 2.0 * p[1].1 + p[2].1) / 4.0;
-        assert!((a - second).abs() < 1e-12, "{a} against {second}");
-        let se_formula = (p[0].2.powi(2) + 4.0 * p[1].2.powi(2) + p[2].2.powi(2)).sqrt() / 4.0;
-        assert!((se - se_formula).abs() < 1e-12, "{se} against {se_formula}");
-        assert!(a / se > 3.0, "z {}", a / se);
-        assert!(alternation(&p[..2]).is_none());
-    }
-
-    /// A gain that changes steadily (a decay-rate error) is no
-    /// alternation.
-    #[test]
-    fn a_trend_is_not_an_alternation() {
-        let p: Vec<(f64, f64, f64)> = (0..7)
-            .map(|k| (k as f64, 0.01 * k as f64 - 0.02, 0.003 + 0.001 * k as f64))
-            .collect();
-        let (a, _) = alternation(&p).unwrap();
-        assert!(a.abs() < 1e-12, "{a}");
-    }
-
-    /// Its standard error is the spread of its estimate under noise of the
-    /// stated size: z-scores over many replicates have a standard
-    /// deviation of one, to Monte Carlo error (`1 / sqrt(2 n)`, four of
-    /// them allowed).
-    #[test]
-    fn its_standard_error_matches_the_spread_under_noise() {
-        use rand::rngs::StdRng;
-        use rand::SeedableRng;
-        use rand_distr::{Distribution, Normal};
-        let seed = 20261207;
-        eprintln!("seed {seed}");
-        let mut rng = StdRng::seed_from_u64(seed);
-        let se: Vec<f64> = (0..6).map(|k| 0.002 * (1.0 + k as f64)).collect();
-        let n = 4000;
-        let z: Vec<f64> = (0..n)
-            .map(|_| {
-                let p: Vec<(f64, f64, f64)> = se
-                    .iter()
-                    .enumerate()
-                    .map(|(k, &s)| {
-                        let e = Normal::new(0.0, s).unwrap().sample(&mut rng);
-                        (k as f64, 0.001 * k as f64 + e, s)
-                    })
-                    .collect();
-                let (a, s) = alternation(&p).unwrap();
-                a / s
-            })
-            .collect();
-        let mean = z.iter().sum::<f64>() / n as f64;
-        let sd = (z.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1) as f64).sqrt();
-        let mc = 1.0 / (2.0 * n as f64).sqrt();
-        assert!(
-            (sd - 1.0).abs() < 4.0 * mc,
-            "sd {sd} (Monte Carlo error {mc})"
-        );
-        assert!(mean.abs() < 4.0 / (n as f64).sqrt(), "mean {mean}");
-    }
 }

@@ -1718,13 +1718,6 @@ fn worsened(
 /// (BIC -44) moved it from 37.500 to 37.635, across p = 0.01, and was
 /// refused for it.
 ///
-/// The swing direction is never gained: on three half-cycles it is the
-/// log gains' second difference, which any fix of a size-dependent
-/// misfit moves. On a Table 8.1 row 5 record `viscous`, the missing
-/// damper, was refused because its refit on `bilinear+coulomb` (the
-/// third branch and the friction slope still missing) showed one of
-/// 0.006 (2026-12-07).
-///
 /// # Formula
 /// ```text
 /// Q_after - Q_before > sqrt(2 h),   h = 20:  6.32
@@ -1738,7 +1731,6 @@ fn gained(before: &Feature, after: &Feature) -> bool {
             | FeatureKind::DecayRate
             | FeatureKind::JumpSize
             | FeatureKind::JumpDirection => after.z > GAINED_Z,
-            FeatureKind::SwingDirection => false,
             _ => true,
         }
 }
@@ -1759,13 +1751,6 @@ fn gained(before: &Feature, after: &Feature) -> bool {
 /// # Formula
 /// ```text
 /// 2 (1 - Phi(z)) = 0.0027 / 4:   z = 3.40
-/// ```
-///
-/// ```
-/// use hbis::criticism::ranking::GAINED_Z;
-/// use statrs::distribution::{ContinuousCDF, Normal};
-/// let tail = |z: f64| 2.0 * (1.0 - Normal::standard().cdf(z));
-/// assert!((tail(GAINED_Z) - tail(3.0) / 4.0).abs() < 5e-6);
 /// ```
 pub const GAINED_Z: f64 = 3.40;
 
@@ -1844,18 +1829,11 @@ pub(super) fn kind_name(k: FeatureKind) -> String {
 /// hidden effects, on white-noise records whose declared structure BIC
 /// found below significance (docs/criticism.md, item 4).
 fn shrink_of(targets: &[FeatureKind], before: &[Feature], after: &[Feature]) -> (f64, f64) {
-    fn find(fs: &[Feature], k: FeatureKind) -> Option<&Feature> {
-        fs.iter().find(|f| f.kind == k)
-    }
+    let find =
+        |fs: &[Feature], k: FeatureKind| fs.iter().find(|f| f.kind == k).map(|f| f.magnitude);
     targets
         .iter()
         .filter_map(|&k| Some((find(before, k)?, find(after, k)?)))
-        // The swing direction counts only where it was significant: on a
-        // Bouc-Wen record `asymmetric-friction` shrank one at z 2.1 from
-        // 0.0049 to 0.0005 and stood in for the smooth hysteresis
-        // (2026-12-07).
-        .filter(|(b, _)| b.kind != FeatureKind::SwingDirection || b.significant)
-        .map(|(b, a)| (b.magnitude, a.magnitude))
         // A structure absent before cannot shrink (0/0 must not pass).
         .filter(|(b, a)| *b > 0.0 && a.is_finite())
         .min_by(|a, b| (a.1 / a.0).total_cmp(&(b.1 / b.0)))

@@ -292,10 +292,6 @@ pub enum FeatureKind {
     /// Jumps that differ by direction of sliding (a friction law whose
     /// jump depends on the direction; `asymmetric-friction`'s does not).
     JumpDirection,
-    /// Swings whose size relative to the model's alternates with the
-    /// direction of motion: swings centred off zero in a structure whose
-    /// stiffness or friction depends on `|u|` (`asymmetric-friction`).
-    SwingDirection,
     /// A residual oscillation at a frequency the model cannot produce.
     SpectralPeak,
 }

@@ -198,7 +198,6 @@ fn feature(name: &str) -> Option<FeatureKind> {
         "decay-rate" => FeatureKind::DecayRate,
         "jump-size" => FeatureKind::JumpSize,
         "jump-direction" => FeatureKind::JumpDirection,
-        "swing-direction" => FeatureKind::SwingDirection,
         "spectral-peak" => FeatureKind::SpectralPeak,
         _ => return None,
     })
@@ -377,7 +376,7 @@ impl FileEffect {
         for t in &h.targets {
             targets.push(feature(t).ok_or_else(|| {
                 invalid(format!(
-                    "target `{t}`: expected one of colour, offset, period-amplitude, period-drift, decay-rate, jump-size, jump-direction, swing-direction, spectral-peak"
+                    "target `{t}`: expected one of colour, offset, period-amplitude, period-drift, decay-rate, jump-size, jump-direction, spectral-peak"
                 ))
             })?);
         }

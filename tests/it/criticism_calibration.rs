@@ -311,26 +311,6 @@ fn a_residual_coloured_at_five_percent_turned_white_is_explained() {
     assert!(o.reason.contains("turns white"), "{}", o.reason);
 }
 
-/// A hidden asymmetric friction on white noise (calibration seed
-/// 113338803, record 39; `a_F` -0.49, on Table 8.1's full model): the
-/// release stops after three swings a tenth of the largest or more, too
-/// few for a period drift, the structure it targeted alone until
-/// 2026-12-07, and it was refused with BIC -35.4 ("none of the residual
-/// structure it targets is present"). The swings' sizes alternate with
-/// the direction instead (gains 1.001, 0.993, 1.017 of the model's, at
-/// 3.6 standard errors), and its refit takes that away.
-#[test]
-fn swings_larger_one_way_than_the_other_show_an_asymmetric_friction() {
-    let o = hidden_record("asymmetric-friction", 113_339_143_016_448);
-    assert_eq!(
-        o.accepted.as_deref(),
-        Some("asymmetric-friction"),
-        "{}",
-        o.reason
-    );
-    assert!(o.reason.contains("swing-direction"), "{}", o.reason);
-}
-
 /// A hidden damper (a record of the out-of-sample run of commit d522cae,
 /// seed 223489198, its record 110; AR(1) noise chosen at the start model,
 /// which stands friction growing with amplitude in for the damping):

@@ -21,11 +21,7 @@
 //! through the test. On a record with `a_F = 0.5`, `rF0 = -0.03` and
 //! 0.2 % noise the fit without it left a period drift of 30 standard
 //! errors and nothing else; with `rF0 = 0` it left a white residual
-//! (2026-11-29, `docs/components.md`). For the same reason (and where
-//! the spring hardens beyond `u3`) the swings are larger than a centred
-//! model's one way and smaller the other: a swing direction, which a
-//! release that stops after three swings shows where a drift needs more
-//! (2026-12-07).
+//! (2026-11-29, `docs/components.md`).
 //!
 //! ```
 //! use hbis::model::friction::Friction;
@@ -63,14 +59,12 @@ impl ForceComponent for AsymmetricFriction {
         // Not the offset: a release's mean acceleration is its change of
         // velocity over the record, zero when it ends at rest, with or
         // without the constant force (the offset gate refused 6 of 8
-        // hidden records, 2026-11-29). The swings' sizes alternating with
-        // the direction: on records too short for a period drift
-        // (features::swing_direction).
-        vec![FeatureKind::PeriodDrift, FeatureKind::SwingDirection]
+        // hidden records, 2026-11-29).
+        vec![FeatureKind::PeriodDrift]
     }
 
     fn signature(&self) -> &str {
-        "friction different in the two directions: the paper's slider plus a constant force a_F F_F while sliding, so the swings are centred off zero; where friction grows with amplitude (rF0 != 0) the half-cycle period then drifts as the amplitude decays, and the swings are larger than a centred model's one way and smaller the other (the jumps at reversals, 2 F_F, do not change)"
+        "friction different in the two directions: the paper's slider plus a constant force a_F F_F while sliding, so the swings are centred off zero; where friction grows with amplitude (rF0 != 0) the half-cycle period then drifts as the amplitude decays (the jumps at reversals, 2 F_F, do not change)"
     }
     fn requires(&self) -> Option<Slot> {
         Some(Slot::Friction)
