@@ -24,6 +24,23 @@ fn hidden(name: &str) -> Kind {
     Kind::Hidden(HIDDEN.iter().position(|h| h.effect == name).unwrap())
 }
 
+/// The fewest misses `m` among `n` records with `P(misses > m) <= alpha`
+/// when each is missed with probability `rate`.
+fn misses_allowed(n: u64, rate: f64, alpha: f64) -> u64 {
+    use statrs::distribution::{Binomial, DiscreteCDF};
+    let misses = Binomial::new(rate, n).unwrap();
+    (0..=n).find(|&m| misses.sf(m) <= alpha).unwrap_or(n)
+}
+
+#[test]
+fn misses_allowed_are_the_binomial_tails() {
+    // At 18 in 160: P(> 1 of 4) = 6.5 %, P(> 2 of 4) = 0.52 %.
+    assert_eq!(misses_allowed(4, 18.0 / 160.0, 0.01), 2);
+    assert_eq!(misses_allowed(4, 18.0 / 160.0, 0.1), 1);
+    assert_eq!(misses_allowed(4, 0.0, 0.01), 0);
+    assert_eq!(misses_allowed(0, 0.5, 0.01), 0);
+}
+
 #[test]
 fn few_false_discoveries_and_hidden_effects_ranked_first() {
     let kinds = [
@@ -88,16 +105,26 @@ fn few_false_discoveries_and_hidden_effects_ranked_first() {
     );
     // A hidden effect that BIC can find on its record (the truth, refitted
     // from its own parameters, beats the start model by more than 10) is
-    // the one added. The full run on seed 225710 added 49 of the 52 such
-    // effects (the three misses were asymmetric frictions, a kind not run
-    // here): at a 3-in-52 miss rate two misses among four records happen
-    // in 1.8 % of runs. Refusing every candidate fails it whenever two of
-    // the four are detectable (30 of the 32 of these kinds were, there).
+    // the one added. Six seeds drawn from commits after their code
+    // (session 35, docs/criticism.md) added 142 of 160 such effects, main's
+    // code; the misses are records whose residual shows nothing the effect
+    // targets, which issue 35's first rule refuses. At that miss rate two
+    // misses among four records happen on 6.5 % of commits, and CI drew
+    // such a seed four times (291086, 623499, 406529, 437477: each time a
+    // white-residual `degradation` and one more). The misses allowed are
+    // the fewest whose excess has probability at most 1 % at that rate:
+    // two of four. Refusing every candidate fails it whenever three or
+    // four are detectable (all four were on each of those seeds).
     let detectable: Vec<_> = hidden.iter().filter(|o| o.detectable()).collect();
     let recovered = detectable.iter().filter(|o| o.recovered()).count();
+    let allowed = misses_allowed(detectable.len() as u64, 18.0 / 160.0, 0.01);
+    eprintln!(
+        "detectable {}, recovered {recovered}, misses allowed {allowed}",
+        detectable.len()
+    );
     assert!(
-        recovered + 1 >= detectable.len(),
-        "{recovered} of {} detectable hidden effects added",
+        recovered as u64 + allowed >= detectable.len() as u64,
+        "{recovered} of {} detectable hidden effects added ({allowed} misses allowed)",
         detectable.len()
     );
     // The coloured records' noise is AR(1) through a filter: `auto` must
