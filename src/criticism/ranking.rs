@@ -1258,46 +1258,12 @@ fn rank_from(
             .cmp(&!b.converged)
             .then(a.delta_bic.total_cmp(&b.delta_bic))
     });
-    outranked(&mut out);
     Ok(Ranking {
         candidates: out,
         screened,
         current: fit.clone(),
         form,
     })
-}
-
-/// No candidate is added, or offered to the ladder's unpin and unmask
-/// moves, where a supported candidate that is not added fits better by
-/// more than [`SUPPORT`] in BIC: the better fit holds what the record
-/// shows, and a worse one added in its place is a stand-in. On a hidden
-/// asymmetric friction (calibration seed 123056105, record 39, session
-/// 36) `friction-decay` was added with BIC -17.4 where
-/// `asymmetric-friction`, the truth, reached -108.5 and was refused for
-/// its targets.
-fn outranked(out: &mut [RankedCandidate]) {
-    let Some((name, best)) = out
-        .iter()
-        .filter(|c| c.supported && c.converged && !c.accepted)
-        .min_by(|a, b| a.delta_bic.total_cmp(&b.delta_bic))
-        .map(|c| (c.effect.clone(), c.delta_bic))
-    else {
-        return;
-    };
-    for c in out.iter_mut().filter(|c| c.delta_bic > best + SUPPORT) {
-        let why = format!(
-            "`{name}` fits better (BIC {best:+.1} against {:+.1}) and is not added: `{}` does not stand in for it",
-            c.delta_bic, c.effect
-        );
-        if c.accepted {
-            c.reason = format!("not added: {why}");
-        } else if c.pinned_only.is_some() || c.worsens_only.is_some() {
-            c.reason = format!("{}; {why}", c.reason);
-        }
-        c.accepted = false;
-        c.pinned_only = None;
-        c.worsens_only = None;
-    }
 }
 
 /// Screening margin: a candidate is not refitted, where the likelihood is
