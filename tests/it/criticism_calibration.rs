@@ -24,6 +24,10 @@ fn hidden(name: &str) -> Kind {
     Kind::Hidden(HIDDEN.iter().position(|h| h.effect == name).unwrap())
 }
 
+/// The share of detectable hidden effects not added on six seeds drawn
+/// from commits after their code (session 35, docs/criticism.md).
+const MISS_RATE: f64 = 18.0 / 160.0;
+
 /// The fewest misses `m` among `n` records with `P(misses > m) <= alpha`
 /// when each is missed with probability `rate`.
 fn misses_allowed(n: u64, rate: f64, alpha: f64) -> u64 {
@@ -34,9 +38,9 @@ fn misses_allowed(n: u64, rate: f64, alpha: f64) -> u64 {
 
 #[test]
 fn misses_allowed_are_the_binomial_tails() {
-    // At 18 in 160: P(> 1 of 4) = 6.5 %, P(> 2 of 4) = 0.52 %.
-    assert_eq!(misses_allowed(4, 18.0 / 160.0, 0.01), 2);
-    assert_eq!(misses_allowed(4, 18.0 / 160.0, 0.1), 1);
+    // At MISS_RATE: P(> 1 of 4) = 6.5 %, P(> 2 of 4) = 0.52 %.
+    assert_eq!(misses_allowed(4, MISS_RATE, 0.01), 2);
+    assert_eq!(misses_allowed(4, MISS_RATE, 0.1), 1);
     assert_eq!(misses_allowed(4, 0.0, 0.01), 0);
     assert_eq!(misses_allowed(0, 0.5, 0.01), 0);
 }
@@ -117,7 +121,7 @@ fn few_false_discoveries_and_hidden_effects_ranked_first() {
     // four are detectable (all four were on each of those seeds).
     let detectable: Vec<_> = hidden.iter().filter(|o| o.detectable()).collect();
     let recovered = detectable.iter().filter(|o| o.recovered()).count();
-    let allowed = misses_allowed(detectable.len() as u64, 18.0 / 160.0, 0.01);
+    let allowed = misses_allowed(detectable.len() as u64, MISS_RATE, 0.01);
     eprintln!(
         "detectable {}, recovered {recovered}, misses allowed {allowed}",
         detectable.len()
