@@ -30,7 +30,7 @@ use thiserror::Error;
 
 use super::ensemble::SamplerError;
 use super::laplace::{
-    axis_scales, covariance_from, hessian, log_evidence, neighbourhood, Laplace, SCALE_DROP, STEP,
+    axis_scales, covariance_from, hessian, log_evidence, neighbourhood, scale_drop, Laplace, STEP,
 };
 use super::likelihood::{ar1_sum, sum_of_squares};
 use super::release::{fit_lag, LagError};
@@ -210,7 +210,7 @@ pub fn laplace_evidence<M: ForwardModel + Clone>(
     // the curvature is the bulk's, and the centre is worth what its
     // neighbourhood is worth to the integral.
     let near = neighbourhood(&f, theta, &lo, &hi)?;
-    let h: Vec<f64> = axis_scales(&f, theta, near.median.min(lp), &range, SCALE_DROP)?
+    let h: Vec<f64> = axis_scales(&f, theta, near.median.min(lp), &range, scale_drop(&near))?
         .iter()
         .zip(&range)
         .map(|(s, r)| (STEP * s).min(0.25 * r))

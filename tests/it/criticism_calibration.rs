@@ -631,3 +631,21 @@ fn a_stiffening_with_travel_is_no_catalog_term() {
     assert!(!o.false_discovery(), "{:?}: {}", o.accepted, o.reason);
     assert!(o.reason.contains("memory term"), "{}", o.reason);
 }
+
+/// A hidden velocity friction of the calibration of 2026-12-07 (seed
+/// 71403623, its record 24: `r_mu` 0.32, `v_t` 0.033 m/s; AR(1) noise
+/// chosen): BIC fell by 139.1 and the Laplace log-evidence by 14.7, so
+/// the evidence gate refused it. The likelihood there is a staircase of
+/// some 4.8-nat steps, and the scales the Hessian is taken over were a
+/// cell's width (sds of 1e-9); the fall they are measured at now clears
+/// the steps (`laplace::scale_drop`).
+#[test]
+fn an_evidence_over_a_staircase_sees_the_bulk() {
+    let o = hidden_record("velocity-friction", 71_403_623 * 1_000_003 + 24);
+    assert_eq!(
+        o.accepted.as_deref(),
+        Some("velocity-friction"),
+        "{}",
+        o.reason
+    );
+}
