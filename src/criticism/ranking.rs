@@ -1134,6 +1134,7 @@ fn rank_from(
         let mut gate = Gate {
             physical_size,
             stands_in,
+            bounded: own_bound(&c.model, &refit.theta, &new),
             pins: pin.as_ref().map(|p| p.1.clone()),
             worsens: worse.as_ref().map(|w| w.1.clone()),
             remains: None,
@@ -1161,7 +1162,15 @@ fn rank_from(
             .accepted()
         };
         let but_for_pin = |g: &Gate| but_for(g, true, false);
-        if but_for(&gate, true, true) {
+        // A candidate refused only for its own parameter on a bound is
+        // asked too: the form's term then names the physics it stood in
+        // for (a Maxwell record, `criticism_calibration::
+        // a_stiffening_with_travel_is_no_catalog_term`).
+        let unbounded = Gate {
+            bounded: None,
+            ..gate.clone()
+        };
+        if but_for(&unbounded, true, true) {
             if form.is_none() {
                 form = Some(missing_form(current, fit_now, data, settings)?);
             }
@@ -1613,16 +1622,52 @@ pub fn profile_z(delta_log_likelihood: f64, k: usize) -> f64 {
 /// `new` of `model` whose neutral value switches their effect off (the
 /// spring's shape parameters have none).
 fn physical_size(model: &Model, theta: &[f64], new: &[usize]) -> Option<f64> {
+    let (layout, names) = (model.layout(), model.param_names());
+    own_params(model, new)
+        .filter_map(|i| {
+            let spec = layout.spec(&names[i])?;
+            Some((theta[i] - spec.neutral).abs() / spec.scale)
+        })
+        .reduce(f64::max)
+}
+
+/// The indices among `new` that are not the spring's shape parameters:
+/// those whose neutral value switches their effect off.
+fn own_params<'a>(model: &'a Model, new: &'a [usize]) -> impl Iterator<Item = usize> + 'a {
     use crate::model::ParamName::{Uy, F0, F1, F2, U0, U3};
     let shape = [U0, Uy, F0, F1, F2, U3].map(|p| p.as_str());
     let names = model.param_names();
     new.iter()
-        .filter(|&&i| !shape.contains(&names[i].as_str()))
-        .filter_map(|&i| {
-            let spec = model.layout().spec(&names[i])?;
-            Some((theta[i] - spec.neutral).abs() / spec.scale)
-        })
-        .reduce(f64::max)
+        .copied()
+        .filter(move |&i| !shape.contains(&names[i].as_str()))
+}
+
+/// A new parameter of the candidate's own (not the spring's shape) that
+/// its refit puts on a prior bound other than its neutral value: the
+/// record asks for more of the effect than its physical range holds, so
+/// the effect stands in for a force it does not model. (A parameter
+/// whose neutral value is on that bound is the effect switched off, which
+/// the other gates judge.) On a Bouc-Wen record of the calibration
+/// (seed 226831318, record 62; 2026-12-07) `asymmetric-friction` was
+/// added with `a_F` at 0.79999 of its bound 0.8 (BIC -54.9) through "the
+/// residual turns white", with no missing form; the hidden
+/// `asymmetric-friction` records are drawn at 0.45-0.6.
+fn own_bound(model: &Model, theta: &[f64], new: &[usize]) -> Option<String> {
+    let (layout, names) = (model.layout(), model.param_names());
+    let (i, bound) = own_params(model, new).find_map(|i| {
+        let spec = layout.spec(&names[i])?;
+        let (lo, hi) = spec.bounds;
+        let near = |x: f64, b: f64| (x - b).abs() <= PINNED * (hi - lo);
+        [lo, hi]
+            .into_iter()
+            .find(|&b| near(theta[i], b) && !near(spec.neutral, b))
+            .map(|b| (i, b))
+    })?;
+    let (lo, hi) = layout.spec(&names[i])?.bounds;
+    Some(format!(
+        "its refit puts its own `{}` on its prior bound ({:.4}, the bound {bound} of [{lo}, {hi}]): the record asks for more of it than its physical range holds, so it stands in for a force it does not model",
+        names[i], theta[i]
+    ))
 }
 
 /// A specific structure (period, offset, spectral peak) that the
@@ -1844,7 +1889,7 @@ fn shrink_of(targets: &[FeatureKind], before: &[Feature], after: &[Feature]) -> 
 ///
 /// ```
 /// use hbis::criticism::ranking::Gate;
-/// let g = Gate { physical_size: Some(4.0), stands_in: None, pins: None, worsens: None, remains: None, raw_e2_ratio: 0.9, raw_e2_limit: 1.05, delta_bic: -40.0, delta_bic_off_jumps: Some(-35.0), delta_log_evidence: 12.0, moved_z: 6.0, target_before: 3.0, target_after: 1.0, whitens: None, unsettled: None };
+/// let g = Gate { physical_size: Some(4.0), stands_in: None, bounded: None, pins: None, worsens: None, remains: None, raw_e2_ratio: 0.9, raw_e2_limit: 1.05, delta_bic: -40.0, delta_bic_off_jumps: Some(-35.0), delta_log_evidence: 12.0, moved_z: 6.0, target_before: 3.0, target_after: 1.0, whitens: None, unsettled: None };
 /// // A targeted structure that grows: not added, unless the residual turns white.
 /// let u = Gate { unsettled: Some("a search from its best still gained 3.0".into()), ..g.clone() };
 /// assert!(!u.supported() && !u.accepted() && u.reason(&[]).starts_with("not added: not ranked"));
@@ -1873,6 +1918,9 @@ fn shrink_of(targets: &[FeatureKind], before: &[Feature], after: &[Feature]) -> 
 /// // One that pins another parameter on its bound: not added.
 /// let g = Gate { physical_size: Some(4.0), pins: Some("puts `rF0` on its prior bound".into()), ..g.clone() };
 /// assert!(g.supported() && !g.accepted() && g.reason(&[]).contains("`rF0`"));
+/// // One whose own parameter sits on its bound: not added.
+/// let b = Gate { pins: None, bounded: Some("its refit puts its own `a_F` on its prior bound".into()), ..g.clone() };
+/// assert!(b.supported() && !b.accepted() && b.reason(&[]).contains("own `a_F`"));
 /// // One that a memory force the catalog lacks explains, gaining nothing
 /// // beside it: a stand-in, not added.
 /// let g = Gate { pins: None, remains: Some("the missing form's memory term lowers BIC by 241.9 ...".into()), ..g.clone() };
@@ -1883,8 +1931,13 @@ pub struct Gate {
     /// Its parameters' distance from neutral in physical scales
     /// ([`RankedCandidate::physical_size`]).
     pub physical_size: Option<f64>,
-    /// Set when it removes a structure it does not target: a period, offset or spectral structure gone while the residual stays coloured.
+    /// Set when it removes a structure it does not target: a period,
+    /// offset or spectral structure gone while the residual stays
+    /// coloured.
     pub stands_in: Option<String>,
+    /// Set when its refit puts one of its own parameters on a prior bound
+    /// other than its neutral value (`ranking::own_bound`): it stands in too.
+    pub bounded: Option<String>,
     /// Set when its refit puts a parameter of the current model on a prior
     /// bound ([`PINNED`]).
     pub pins: Option<String>,
@@ -1964,14 +2017,16 @@ impl Gate {
     fn target_shrinks(&self) -> bool {
         self.target_after <= SHRINK * self.target_before
     }
-    /// All four, and it stands in for nothing, pins no other parameter on a
-    /// bound and leaves no new structure.
+    /// All four, and it stands in for nothing, has none of its own
+    /// parameters on a bound, pins no other parameter on a bound and
+    /// leaves no new structure.
     pub fn accepted(&self) -> bool {
         self.supported()
             && self.evidence()
             && self.moved()
             && self.shrinks()
             && self.stands_in.is_none()
+            && self.bounded.is_none()
             && self.pins.is_none()
             && self.worsens.is_none()
             && self.remains.is_none()
@@ -2044,9 +2099,15 @@ impl Gate {
                 100.0 * SHRINK
             ));
         }
-        for s in [&self.stands_in, &self.pins, &self.worsens, &self.remains]
-            .into_iter()
-            .flatten()
+        for s in [
+            &self.stands_in,
+            &self.bounded,
+            &self.pins,
+            &self.worsens,
+            &self.remains,
+        ]
+        .into_iter()
+        .flatten()
         {
             why.push(s.clone());
         }
@@ -2655,6 +2716,33 @@ mod tests {
         let mut before = now.clone();
         before[k] = 0.1;
         assert_eq!(pinned(&current, &before, &extended, &refit), None);
+    }
+
+    #[test]
+    fn an_effect_whose_own_size_sits_on_its_bound_stands_in() {
+        let p = crate::model::Params::table_8_1(5).unwrap();
+        let asym = Model::parse("trilinear+lcfm+viscous+asymmetric-friction").unwrap();
+        let at = |a_f: f64| asym.theta_from_params(&p, &[("a_F", a_f)]).unwrap();
+        let of = |m: &Model, name: &str| m.param_names().iter().position(|n| n == name).unwrap();
+        let new = [of(&asym, "a_F")];
+        // a_F's bounds are [-0.8, 0.8]; the calibration draws 0.45-0.6.
+        assert_eq!(own_bound(&asym, &at(0.6), &new), None);
+        let why = own_bound(&asym, &at(-0.79999), &new).unwrap();
+        assert!(
+            why.contains("own `a_F`") && why.contains("-0.8 of [-0.8, 0.8]"),
+            "{why}"
+        );
+        // Not a new parameter: not the candidate's own.
+        assert_eq!(own_bound(&asym, &at(0.8), &[]), None);
+        // r_mu's neutral 1.0 is its upper bound: the effect switched off.
+        let vf = Model::parse("trilinear+lcfm+viscous+velocity-friction").unwrap();
+        let new = [of(&vf, "r_mu"), of(&vf, "v_t")];
+        let theta = |r_mu: f64| {
+            vf.theta_from_params(&p, &[("r_mu", r_mu), ("v_t", 0.05)])
+                .unwrap()
+        };
+        assert_eq!(own_bound(&vf, &theta(1.0), &new), None);
+        assert!(own_bound(&vf, &theta(0.05), &new).is_some());
     }
 
     #[test]

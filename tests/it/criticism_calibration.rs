@@ -615,6 +615,27 @@ fn a_stand_in_that_moves_the_colour_across_its_line_by_a_hair_is_not_added() {
     assert!(!o.false_discovery(), "{:?}: {}", o.accepted, o.reason);
 }
 
+/// A Bouc-Wen spring of the calibration of 2026-12-07 (seed 226831318,
+/// its record 62; AR(1) noise chosen, the missing form empty):
+/// `asymmetric-friction` (BIC -54.9) was added through "the residual
+/// turns white" (`Q` 42.8 to 26.6) with `a_F` at 0.79999, on its prior
+/// bound 0.8. A candidate whose own size sits on its bound stands in for
+/// a force it does not model (`ranking::own_bound`).
+#[test]
+fn an_effect_that_wants_more_than_its_range_is_not_added() {
+    let o = criticised(
+        Kind::Outside(1),
+        226_831_318u64.wrapping_mul(1_000_003) + 62,
+    );
+    assert_eq!(o.outside.as_deref(), Some("bouc-wen"));
+    assert!(!o.false_discovery(), "{:?}: {}", o.accepted, o.reason);
+    assert!(
+        o.reason.contains("own `a_F` on its prior bound"),
+        "{}",
+        o.reason
+    );
+}
+
 /// A Maxwell record of the out-of-sample run of commit 6e67633 (seed
 /// 115766835, its record 59: `r_m` 0.248, `tau_m` 0.74 s; AR(1) noise
 /// chosen). The missing form was `travel u` alone with a positive
