@@ -1623,7 +1623,7 @@ pub fn profile_z(delta_log_likelihood: f64, k: usize) -> f64 {
 /// spring's shape parameters have none).
 fn physical_size(model: &Model, theta: &[f64], new: &[usize]) -> Option<f64> {
     let (layout, names) = (model.layout(), model.param_names());
-    own_params(model, new)
+    own_params(&names, new)
         .filter_map(|i| {
             let spec = layout.spec(&names[i])?;
             Some((theta[i] - spec.neutral).abs() / spec.scale)
@@ -1633,10 +1633,9 @@ fn physical_size(model: &Model, theta: &[f64], new: &[usize]) -> Option<f64> {
 
 /// The indices among `new` that are not the spring's shape parameters:
 /// those whose neutral value switches their effect off.
-fn own_params<'a>(model: &'a Model, new: &'a [usize]) -> impl Iterator<Item = usize> + 'a {
+fn own_params<'a>(names: &'a [String], new: &'a [usize]) -> impl Iterator<Item = usize> + 'a {
     use crate::model::ParamName::{Uy, F0, F1, F2, U0, U3};
     let shape = [U0, Uy, F0, F1, F2, U3].map(|p| p.as_str());
-    let names = model.param_names();
     new.iter()
         .copied()
         .filter(move |&i| !shape.contains(&names[i].as_str()))
@@ -1654,20 +1653,25 @@ fn own_params<'a>(model: &'a Model, new: &'a [usize]) -> impl Iterator<Item = us
 /// `asymmetric-friction` records are drawn at 0.45-0.6.
 fn own_bound(model: &Model, theta: &[f64], new: &[usize]) -> Option<String> {
     let (layout, names) = (model.layout(), model.param_names());
-    let (i, bound) = own_params(model, new).find_map(|i| {
+    let (i, bound, (lo, hi)) = own_params(&names, new).find_map(|i| {
         let spec = layout.spec(&names[i])?;
-        let (lo, hi) = spec.bounds;
-        let near = |x: f64, b: f64| (x - b).abs() <= PINNED * (hi - lo);
-        [lo, hi]
-            .into_iter()
-            .find(|&b| near(theta[i], b) && !near(spec.neutral, b))
-            .map(|b| (i, b))
+        let bound = pinned_at(theta[i], spec.bounds)
+            .filter(|&b| pinned_at(spec.neutral, spec.bounds) != Some(b))?;
+        Some((i, bound, spec.bounds))
     })?;
-    let (lo, hi) = layout.spec(&names[i])?.bounds;
     Some(format!(
         "its refit puts its own `{}` on its prior bound ({:.4}, the bound {bound} of [{lo}, {hi}]): the record asks for more of it than its physical range holds, so it stands in for a force it does not model",
         names[i], theta[i]
     ))
+}
+
+/// The bound of `(lo, hi)` that `x` is within [`PINNED`] of the range
+/// from, if any: closer than `sanity::bound_reached`'s warning (0.5 %),
+/// and a lower bound of 0 counts.
+fn pinned_at(x: f64, (lo, hi): (f64, f64)) -> Option<f64> {
+    [lo, hi]
+        .into_iter()
+        .find(|&b| (x - b).abs() <= PINNED * (hi - lo))
 }
 
 /// A specific structure (period, offset, spectral peak) that the
@@ -1718,7 +1722,7 @@ fn pinned(current: &Model, now: &[f64], model: &Model, refit: &[f64]) -> Option<
         .find_map(|(i, name)| {
             let before = layout.get(now, name)?;
             let (lo, hi) = bounds[i];
-            let at = |x: f64| (x - lo).abs() <= PINNED * (hi - lo) || (hi - x).abs() <= PINNED * (hi - lo);
+            let at = |x: f64| pinned_at(x, (lo, hi)).is_some();
             (at(refit[i]) && !at(before)).then(|| {
                 let why = format!(
                     "its refit puts `{name}` on its prior bound ({:.4} in [{lo}, {hi}]) where the current fit has {before:.4}: it needs another part of the model forced to a limit",
